@@ -1,0 +1,1 @@
+"""The instrument as it is: robot specs, layouts, kinematics and 2D collision geometry."""

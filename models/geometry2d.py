@@ -1,0 +1,119 @@
+"""2D capsule geometry of Sayres 2021 Sect. 3.3: beta arms as buffered segments.
+
+All functions are numba ``@njit(cache=True)`` kernels on scalars or numpy arrays.
+Lengths in mm, angles in degrees at the public boundary (radians inside).
+
+A robot's collision body is the segment from ``start`` to ``end`` mm along its beta
+arm (measured from the beta axis), thickened by a buffer; two robots collide when the
+segment distance is ``<= buffer_i + buffer_j`` (Eq. 3). A fiducial is a disk.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+DEG = math.pi / 180.0
+
+
+@njit(cache=True, inline="always")
+def segment_distance(ax, ay, bx, by, cx, cy, dx, dy):
+    """Minimum distance between segments AB and CD in the plane, mm.
+
+    Exact for all cases (crossing, parallel, degenerate). Scalars in, scalar out.
+    """
+    # crossing segments have distance zero
+    d1 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
+    d2 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
+    d3 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    d4 = (bx - ax) * (dy - ay) - (by - ay) * (dx - ax)
+    if ((d1 > 0.0 and d2 < 0.0) or (d1 < 0.0 and d2 > 0.0)) and \
+            ((d3 > 0.0 and d4 < 0.0) or (d3 < 0.0 and d4 > 0.0)):
+        return 0.0
+    # otherwise the minimum is reached at an endpoint of one of the segments
+    best = point_segment_distance(ax, ay, cx, cy, dx, dy)
+    v = point_segment_distance(bx, by, cx, cy, dx, dy)
+    if v < best:
+        best = v
+    v = point_segment_distance(cx, cy, ax, ay, bx, by)
+    if v < best:
+        best = v
+    v = point_segment_distance(dx, dy, ax, ay, bx, by)
+    if v < best:
+        best = v
+    return best
+
+
+@njit(cache=True, inline="always")
+def point_segment_distance(px, py, ax, ay, bx, by):
+    """Distance from point P to segment AB, mm."""
+    ux = bx - ax
+    uy = by - ay
+    den = ux * ux + uy * uy
+    t = 0.0
+    if den > 0.0:
+        t = ((px - ax) * ux + (py - ay) * uy) / den
+        if t < 0.0:
+            t = 0.0
+        elif t > 1.0:
+            t = 1.0
+    ex = ax + t * ux - px
+    ey = ay + t * uy - py
+    return math.sqrt(ex * ex + ey * ey)
+
+
+@njit(cache=True, inline="always")
+def beta_segment(bx, by, alpha_deg, beta_deg, l_alpha, s0, s1):
+    """Endpoints (x0, y0, x1, y1) of the beta collision segment, mm (Eqs. 1-2)."""
+    a = alpha_deg * DEG
+    ab = (alpha_deg + beta_deg) * DEG
+    ex = bx + l_alpha * math.cos(a)
+    ey = by + l_alpha * math.sin(a)
+    c = math.cos(ab)
+    s = math.sin(ab)
+    return ex + s0 * c, ey + s0 * s, ex + s1 * c, ey + s1 * s
+
+
+@njit(cache=True)
+def pair_distances(base_xy, angles, pairs, l_alpha, seg_start, seg_end):
+    """Segment distance of each robot pair, mm.
+
+    Parameters
+    ----------
+    base_xy : (n, 2) float64, mm
+    angles : (n, 2) float64, (alpha, beta) deg
+    pairs : (p, 2) int64, robot indices
+    l_alpha, seg_start : float, mm
+    seg_end : (n,) float64, mm (per robot, since it may depend on the buffer)
+
+    Returns
+    -------
+    (p,) float64
+    """
+    out = np.empty(pairs.shape[0])
+    for k in range(pairs.shape[0]):
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        a0x, a0y, a1x, a1y = beta_segment(base_xy[i, 0], base_xy[i, 1], angles[i, 0], angles[i, 1],
+                                          l_alpha, seg_start, seg_end[i])
+        b0x, b0y, b1x, b1y = beta_segment(base_xy[j, 0], base_xy[j, 1], angles[j, 0], angles[j, 1],
+                                          l_alpha, seg_start, seg_end[j])
+        out[k] = segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y)
+    return out
+
+
+@njit(cache=True)
+def fiducial_distances(base_xy, angles, robot_fid, fid_xy, l_alpha, seg_start, seg_end):
+    """Distance from each (robot, fiducial) pair's beta segment to the fiducial centre, mm.
+
+    robot_fid : (p, 2) int64 of (robot index, fiducial index). Returns (p,) float64.
+    """
+    out = np.empty(robot_fid.shape[0])
+    for k in range(robot_fid.shape[0]):
+        i = robot_fid[k, 0]
+        f = robot_fid[k, 1]
+        a0x, a0y, a1x, a1y = beta_segment(base_xy[i, 0], base_xy[i, 1], angles[i, 0], angles[i, 1],
+                                          l_alpha, seg_start, seg_end[i])
+        out[k] = point_segment_distance(fid_xy[f, 0], fid_xy[f, 1], a0x, a0y, a1x, a1y)
+    return out

@@ -1,0 +1,1 @@
+"""From configurations to collision-free, timed trajectories."""

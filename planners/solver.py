@@ -1,0 +1,225 @@
+"""Reverse (and forward) GC/MC planning with deadlock resolution (Sayres 2021 Sect. 5).
+
+:func:`plan_reconfiguration` plans the motion from the folded state to the targets.
+In reverse mode (the default) it plans targets -> fold and plays that backwards; in
+forward mode it plans fold -> targets directly (for comparison, Fig. 8).
+
+When robots deadlock, one robot per deadlocked group (connected through the Eq. 4
+neighbour graph) gets a new random target and everything is planned again, until the
+array converges or ``max_rounds`` is spent. Metrics follow the paper: efficiency
+(Eq. 11, replaced robots counted once), convergence of the first run, tau_pg (time of the
+final, converging planner run), tau_sr (all runs), fold time (steps x step duration).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.array import ArrayGeometry
+from models.errors import PlanningError, SpecError, UnknownRobotError
+from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
+from planners.stepwise import ANGLE_EPS, max_displacement, run_stepwise
+from planners.targets import check_targets, random_targets
+
+ALGORITHMS = ("greedy", "markov")
+DIRECTIONS = ("reverse", "forward")
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    """Parameters of one planning job.
+
+    algorithm : "greedy" | "markov"; step_deg : angular step (deg); greed, phobia : MC
+    parameters in [0, 1]; direction : "reverse" | "forward"; max_steps : step limit
+    (default 1000 deg / step, as in the paper); max_rounds : deadlock-resolution rounds.
+    """
+
+    algorithm: str = "greedy"
+    step_deg: float = 0.1
+    greed: float = 0.9
+    phobia: float = 0.3
+    direction: str = "reverse"
+    max_steps: int | None = None
+    max_rounds: int = 50
+
+    def __post_init__(self) -> None:
+        if self.algorithm not in ALGORITHMS:
+            raise SpecError(f"field 'algorithm' = {self.algorithm!r}; allowed: {', '.join(ALGORITHMS)}")
+        if self.direction not in DIRECTIONS:
+            raise SpecError(f"field 'direction' = {self.direction!r}; allowed: {', '.join(DIRECTIONS)}")
+        if not (np.isfinite(self.step_deg) and 0.001 <= self.step_deg <= 10.0):
+            raise SpecError(f"field 'step_deg' = {self.step_deg!r}; allowed: [0.001, 10] deg")
+        for name in ("greed", "phobia"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and 0.0 <= v <= 1.0):
+                raise SpecError(f"field '{name}' = {v!r}; allowed: [0, 1]")
+        if self.max_steps is not None and self.max_steps < 1:
+            raise SpecError(f"field 'max_steps' = {self.max_steps!r}; allowed: >= 1")
+        if self.max_rounds < 0:
+            raise SpecError(f"field 'max_rounds' = {self.max_rounds!r}; allowed: >= 0")
+
+    @property
+    def steps_limit(self) -> int:
+        return int(self.max_steps or round(1000.0 / self.step_deg))
+
+    @property
+    def greedy(self) -> bool:
+        return self.algorithm == "greedy"
+
+
+@dataclass
+class StepRun:
+    """Raw outcome of one kernel call."""
+
+    final: np.ndarray        # (n, 2) deg
+    n_steps: int
+    ev_robot: np.ndarray
+    ev_step: np.ndarray
+    ev_angles: np.ndarray
+    seconds: float
+
+
+def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
+             settings: PlannerSettings, seed: int) -> StepRun:
+    """One call of the stepwise kernel, growing the breakpoint buffers if they overflow."""
+    spec = geom.spec
+    n = geom.n_robots
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
+                          settings.step_deg)
+    greed = np.full(n, 1.0 if settings.greedy else settings.greed)
+    phobia = 0.0 if settings.greedy else settings.phobia
+    limits = np.array([*spec.alpha_limits_deg, *spec.beta_limits_deg], dtype=np.float64)
+    # GC paths need a few dozen breakpoints per robot; MC random walks about one per step
+    cap = 64 * n + 1024 if settings.greedy else n * 2048
+    start = np.ascontiguousarray(start, dtype=np.float64)
+    dest = np.ascontiguousarray(dest, dtype=np.float64)
+    while True:
+        ev_robot = np.empty(cap, dtype=np.int64)
+        ev_step = np.empty(cap, dtype=np.int64)
+        ev_angles = np.empty((cap, 2))
+        final = np.empty((n, 2))
+        t0 = time.perf_counter()
+        n_ev, n_steps = run_stepwise(
+            geom.base_xy, start, dest, movable, geom.nbr_ptr, geom.nbr_idx, geom.nbr_dist,
+            geom.fid_ptr, geom.fid_idx, geom.fid_xy, geom.fiducial_buffer,
+            spec.alpha_length_mm, spec.segment_start_mm, geom.seg_end, geom.buffer, limits,
+            settings.step_deg, settings.steps_limit, md, greed, phobia, seed,
+            ev_robot, ev_step, ev_angles, final)
+        seconds = time.perf_counter() - t0
+        if n_ev >= 0:
+            return StepRun(final, int(n_steps), ev_robot[:n_ev], ev_step[:n_ev], ev_angles[:n_ev],
+                           seconds)
+        cap *= 4
+
+
+def deadlocked_groups(geom: ArrayGeometry, stuck: np.ndarray) -> list[np.ndarray]:
+    """Connected components of the stuck robots through the Eq. 4 neighbour graph."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    idx = np.flatnonzero(stuck)
+    if idx.size == 0:
+        return []
+    pos = -np.ones(geom.n_robots, dtype=np.int64)
+    pos[idx] = np.arange(idx.size)
+    p = geom.pairs
+    both = stuck[p[:, 0]] & stuck[p[:, 1]]
+    rows, cols = pos[p[both, 0]], pos[p[both, 1]]
+    graph = csr_matrix((np.ones(rows.size), (rows, cols)), shape=(idx.size, idx.size))
+    n_comp, labels = connected_components(graph, directed=False)
+    return [idx[labels == c] for c in range(n_comp)]
+
+
+def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: PlannerSettings,
+                         rng: np.random.Generator, *, offline: dict[int, tuple[float, float]] | None = None,
+                         resolve: bool = True, progress=None) -> Plan:
+    """Plan the array from the folded state to ``targets`` (executed direction).
+
+    Parameters
+    ----------
+    geom : ArrayGeometry
+    targets : (n, 2) deg, one row per robot (rows of offline robots are ignored)
+    settings : PlannerSettings
+    rng : numpy Generator; seeds the Markov kernel and draws replacement targets
+    offline : {robot_id: (alpha, beta)}; robots that never move, at these angles
+    resolve : replace one target per deadlocked group and re-plan (True), or stop after
+        the first run (False: the plan then marks stuck robots DEADLOCKED)
+    progress : optional callable(round, n_stuck) called after each planner run
+
+    Returns
+    -------
+    Plan in the executed direction: step 0 is the folded state, the last step the targets.
+    Robots that stayed deadlocked keep their path to where they stopped.
+    """
+    spec = geom.spec
+    n = geom.n_robots
+    targets = np.array(targets, dtype=np.float64, copy=True)
+    movable = np.ones(n, dtype=bool)
+    for rid, ang in (offline or {}).items():
+        hits = np.flatnonzero(geom.robot_ids == int(rid))
+        if hits.size == 0:
+            raise UnknownRobotError(f"offline robot {rid}: unknown robot id; allowed ids: "
+                                    f"{int(geom.robot_ids.min())}..{int(geom.robot_ids.max())}")
+        movable[hits[0]] = False
+        targets[hits[0]] = ang
+    check_targets(geom, targets)
+    fold = np.tile(np.asarray(spec.fold_deg, dtype=np.float64), (n, 1))
+    fold[~movable] = targets[~movable]
+    check_targets(geom, fold)
+
+    original = targets.copy()
+    replaced = np.zeros(n, dtype=bool)
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
+                          settings.step_deg)
+    tau_sr = 0.0
+    convergence = None
+    rounds = 0
+    while True:
+        seed = int(rng.integers(0, 2**31 - 1))
+        if settings.direction == "reverse":
+            run = run_once(geom, targets, fold, movable, settings, seed)
+            goal = fold
+        else:
+            run = run_once(geom, fold, targets, movable, settings, seed)
+            goal = targets
+        tau_sr += run.seconds
+        stuck = movable & ~np.all(np.abs(run.final - goal) < ANGLE_EPS, axis=1)
+        if convergence is None:
+            convergence = 1.0 - stuck.sum() / max(1, movable.sum())
+        if progress is not None:
+            progress(rounds, int(stuck.sum()))
+        if not stuck.any() or not resolve or rounds >= settings.max_rounds:
+            break
+        rounds += 1
+        groups = deadlocked_groups(geom, stuck)
+        chosen = np.array([rng.choice(g) for g in groups], dtype=np.int64)
+        replaced[chosen] = True
+        keep = np.ones(n, dtype=bool)
+        keep[chosen] = False
+        targets = random_targets(geom, rng, fixed=keep, initial=targets, margin_mm=md, robots=chosen)
+
+    start = targets if settings.direction == "reverse" else fold
+    ptr, steps, angles = build_paths(n, run.ev_robot, run.ev_step, run.ev_angles, start,
+                                     run.final, run.n_steps)
+    status = np.where(replaced, REPLACED, REACHED).astype(object)
+    status[stuck] = DEADLOCKED
+    status[~movable] = OFFLINE
+    n_mov = int(movable.sum())
+    plan = Plan(
+        robot_ids=geom.robot_ids.copy(), step_deg=settings.step_deg,
+        step_s=spec.step_seconds(settings.step_deg), n_steps=run.n_steps,
+        path_ptr=ptr, path_step=steps, path_angles=angles, status=status,
+        targets=targets, original_targets=original,
+        metrics={
+            "n_robots": n, "n_movable": n_mov, "n_offline": n - n_mov,
+            "n_replaced": int(replaced.sum()), "n_deadlocked": int(stuck.sum()),
+            "efficiency": (n_mov - int(replaced.sum())) / max(1, n_mov),
+            "convergence": float(convergence), "rounds": rounds,
+            "tau_pg_s": run.seconds, "tau_sr_s": tau_sr,
+            "fold_time_s": run.n_steps * spec.step_seconds(settings.step_deg),
+            "n_steps": run.n_steps, "max_displacement_mm": md,
+        },
+    )
+    return plan.reversed() if settings.direction == "reverse" else plan

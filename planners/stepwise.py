@@ -1,0 +1,485 @@
+"""The stepwise Greedy (GC) and Markov (MC) planners of Sayres 2021 Sect. 4, numba.
+
+One call of :func:`run_stepwise` moves every robot from ``start`` towards ``dest`` in
+steps of at most ``step_deg`` per axis, robot by robot in index order (Appendix A), and
+records each robot's path as breakpoints: the configurations where its move vector
+changes, so that linear interpolation between breakpoints on the step clock is exactly
+the stepwise path.
+
+Rules, as in the paper:
+
+* candidates: the 9 moves {-d, 0, +d}^2, clipped to the travel limits and to not
+  overshoot the destination;
+* step rule (Eqs. 6-7): a candidate is allowed only if its beta capsule is farther than
+  ``buffer_i + buffer_j + MD`` from every neighbour's (and ``buffer_i + fiducial_buffer
+  + MD`` from every fiducial centre), MD = (l_alpha + l_beta) sin(2 d);
+* GC: the allowed candidate of least cost C = |theta - theta_dest| (Eq. 8);
+* MC: a robot at its destination stays unless a neighbour is within
+  ``2 sigma + 3 MD`` (Eq. 10); otherwise with probability ``phobia`` it minimises the
+  energy E = sum 1/D^2 (Eq. 9) instead of the cost, visits the candidates in random
+  order, and accepts an allowed candidate that beats the best so far with probability
+  ``greed`` (a tie with probability 1/2). greed = 1, phobia = 0 is GC.
+
+Why a stepwise plan is collision-free in continuous time: every pair satisfies
+D > 2 sigma + MD at every step state (each mover is checked against its neighbours'
+latest states, and the pair's state after a step is the one checked last). Within a step
+a point at distance r along the beta arm moves at most (l_alpha + 2 r) d (radians), so
+the pair distance cannot drop by more than (l_alpha + 2 r_max) d below the mean of its
+two end values, which MD covers whenever r_max <= l_beta + l_alpha / 2. ``max_disp``
+takes the larger of Eq. 7 and that bound, so the guarantee holds for any segment.
+
+Speed (see benchmarks/): no arrays are created inside the step loop; a robot whose
+best candidate is to stay sleeps until one of its neighbours moves; candidates are tried
+in order of cost so the obvious move is checked first; and a cheap disk bound skips
+neighbour pairs that cannot be within reach (the bound subsumes the Eq. 14 early exit).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from models.geometry2d import point_segment_distance, segment_distance
+
+DEG = math.pi / 180.0
+#: Angles closer than this are the same angle (deg).
+ANGLE_EPS = 1e-9
+#: MC energy (Eq. 9) counts neighbours whose capsules may be nearer than this (mm).
+ENERGY_CUTOFF_MM = 12.0
+
+
+def max_displacement(l_alpha: float, l_beta: float, seg_end: float, step_deg: float) -> float:
+    """MD of Eq. 7, raised if needed to bound a step's motion of the whole segment, mm."""
+    eq7 = (l_alpha + l_beta) * math.sin(2.0 * step_deg * DEG)
+    bound = (l_alpha + 2.0 * seg_end) * step_deg * DEG
+    return max(eq7, bound)
+
+
+# --- small scalar helpers (inlined; scalars only, no array arguments) ----------------
+@njit(cache=True, inline="always")
+def _rot(c, s, k, cd, sd, c2d, s2d):
+    """(cos, sin) of an angle rotated by k steps, k in -2..2."""
+    if k == 0:
+        return c, s
+    if k == 1:
+        return c * cd - s * sd, s * cd + c * sd
+    if k == -1:
+        return c * cd + s * sd, s * cd - c * sd
+    if k == 2:
+        return c * c2d - s * s2d, s * c2d + c * s2d
+    return c * c2d + s * s2d, s * c2d - c * s2d
+
+
+@njit(cache=True, inline="always")
+def _toward(cur, dest, k, step, lo, hi):
+    """Angle after a k-step move (k in -1, 0, 1) clipped to limits and to not overshoot."""
+    nxt = cur + k * step
+    if nxt < lo:
+        nxt = lo
+    elif nxt > hi:
+        nxt = hi
+    if cur > dest and nxt <= dest:
+        nxt = dest
+    elif cur < dest and nxt >= dest:
+        nxt = dest
+    return nxt
+
+
+@njit(cache=True, inline="always")
+def _sign(x):
+    if x > ANGLE_EPS:
+        return 1
+    if x < -ANGLE_EPS:
+        return -1
+    return 0
+
+
+@njit(cache=True, inline="always")
+def _reach_from_cos(l_alpha, s0, s1, cos_b):
+    """Largest base distance of any point of the beta segment, from cos(beta), mm."""
+    r1 = l_alpha * l_alpha + s1 * s1 + 2.0 * l_alpha * s1 * cos_b
+    r0 = l_alpha * l_alpha + s0 * s0 + 2.0 * l_alpha * s0 * cos_b
+    return math.sqrt(max(r0, r1, 0.0))
+
+
+@njit(cache=True)
+def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
+                 fid_ptr, fid_idx, fid_xy, fid_buffer,
+                 l_alpha, seg_start, seg_end, buffer, limits, step_deg, max_steps, md,
+                 greed, phobia, seed, ev_robot, ev_step, ev_angles, cur):
+    """Run GC/MC from ``start`` towards ``dest``.
+
+    Parameters
+    ----------
+    base_xy : (n, 2) float64, mm
+    start, dest : (n, 2) float64, (alpha, beta) deg
+    movable : (n,) bool; robots that are False never move (offline robots)
+    nbr_ptr, nbr_idx : CSR robot adjacency (Eq. 4), int64
+    nbr_dist : (len(nbr_idx),) float64 base distance of each adjacency entry, mm
+    fid_ptr, fid_idx : CSR robot -> fiducial index, int64; fid_xy (m, 2) mm
+    fid_buffer : float, keep-out radius of fiducials, mm
+    l_alpha, seg_start : float, mm
+    seg_end, buffer : (n,) float64, mm (per robot)
+    limits : (4,) float64 (alpha_lo, alpha_hi, beta_lo, beta_hi), deg
+    step_deg : float; max_steps : int; md : float, mm (:func:`max_displacement`)
+    greed : (n,) float64 in [0, 1]; phobia : float in [0, 1]; greed 1 and phobia 0
+        everywhere selects the deterministic greedy planner
+    seed : int, seeds numba's generator (used by MC only)
+    ev_robot, ev_step : (cap,) int64; ev_angles : (cap, 2) float64
+        Output buffers for breakpoints: robot, step index, (alpha, beta).
+    cur : (n, 2) float64, output: final configuration.
+
+    Returns
+    -------
+    n_events : int, number of breakpoints written (-1 if the buffers overflowed)
+    n_steps : int, steps taken
+    """
+    np.random.seed(seed)
+    n = base_xy.shape[0]
+    cap = ev_robot.shape[0]
+    greedy = phobia <= 0.0
+    for i in range(n):
+        if greed[i] < 1.0:
+            greedy = False
+    a_lo = limits[0]
+    a_hi = limits[1]
+    b_lo = limits[2]
+    b_hi = limits[3]
+    cd = math.cos(step_deg * DEG)
+    sd = math.sin(step_deg * DEG)
+    c2d = math.cos(2.0 * step_deg * DEG)
+    s2d = math.sin(2.0 * step_deg * DEG)
+    s0 = seg_start
+
+    # per-robot state: (cos a, sin a, cos(a+b), sin(a+b), cos b, sin b), segment, reach
+    trig = np.empty((n, 6))
+    seg = np.empty((n, 4))
+    rho = np.empty(n)
+    last = np.zeros((n, 2))
+    home = np.zeros(n, dtype=np.bool_)
+    asleep_at = np.full(n, -1, dtype=np.int64)  # move counter when the robot fell asleep
+    moved_at = np.zeros(n, dtype=np.int64)      # move counter of the robot's last move
+    free_until = np.zeros(n, dtype=np.int64)    # step until which robot i needs no checks
+    free_ref = 0.0 if greedy else ENERGY_CUTOFF_MM
+    s1_max = 0.0
+    for i in range(n):
+        s1_max = max(s1_max, seg_end[i], seg_start)
+    free_step = 2.0 * s1_max * step_deg * DEG * 1.001
+    cand = np.empty((9, 13))  # na, nb, cos a, sin a, cos ab, sin ab, cos b, sin b, segment, reach
+    cost = np.empty(9)
+    order = np.empty(9, dtype=np.int64)
+    n_moves = 1
+    n_left = 0
+    for i in range(n):
+        cur[i, 0] = start[i, 0]
+        cur[i, 1] = start[i, 1]
+        a = cur[i, 0] * DEG
+        b = cur[i, 1] * DEG
+        trig[i, 0] = math.cos(a)
+        trig[i, 1] = math.sin(a)
+        trig[i, 2] = math.cos(a + b)
+        trig[i, 3] = math.sin(a + b)
+        trig[i, 4] = math.cos(b)
+        trig[i, 5] = math.sin(b)
+        ex = base_xy[i, 0] + l_alpha * trig[i, 0]
+        ey = base_xy[i, 1] + l_alpha * trig[i, 1]
+        seg[i, 0] = ex + s0 * trig[i, 2]
+        seg[i, 1] = ey + s0 * trig[i, 3]
+        seg[i, 2] = ex + seg_end[i] * trig[i, 2]
+        seg[i, 3] = ey + seg_end[i] * trig[i, 3]
+        rho[i] = _reach_from_cos(l_alpha, s0, seg_end[i], trig[i, 4])
+        home[i] = abs(cur[i, 0] - dest[i, 0]) < ANGLE_EPS and abs(cur[i, 1] - dest[i, 1]) < ANGLE_EPS
+        if movable[i] and not home[i]:
+            n_left += 1
+
+
+    def try_cand(q, i, ca, cb, bx, by, s1, margin, step, check=True):
+        """Fill candidate q's state; return q if it passes the step rule, else -1.
+
+        While ``step < free_until[i]`` no neighbour or fiducial can be near enough to
+        matter (see the disk-bound argument below), so the scan is skipped.
+        """
+        na = cand[q, 0]
+        nb = cand[q, 1]
+        ka = _sign(na - ca)
+        kb = _sign(nb - cb)
+        exact = (ka != 0 and abs(abs(na - ca) - step_deg) > ANGLE_EPS) or \
+                (kb != 0 and abs(abs(nb - cb) - step_deg) > ANGLE_EPS)
+        if exact:
+            a = na * DEG
+            b = nb * DEG
+            cand[q, 2] = math.cos(a)
+            cand[q, 3] = math.sin(a)
+            cand[q, 4] = math.cos(a + b)
+            cand[q, 5] = math.sin(a + b)
+            cand[q, 6] = math.cos(b)
+            cand[q, 7] = math.sin(b)
+        else:
+            c, s = _rot(trig[i, 0], trig[i, 1], ka, cd, sd, c2d, s2d)
+            cand[q, 2] = c
+            cand[q, 3] = s
+            c, s = _rot(trig[i, 2], trig[i, 3], ka + kb, cd, sd, c2d, s2d)
+            cand[q, 4] = c
+            cand[q, 5] = s
+            c, s = _rot(trig[i, 4], trig[i, 5], kb, cd, sd, c2d, s2d)
+            cand[q, 6] = c
+            cand[q, 7] = s
+        ex = bx + l_alpha * cand[q, 2]
+        ey = by + l_alpha * cand[q, 3]
+        x0 = ex + s0 * cand[q, 4]
+        y0 = ey + s0 * cand[q, 5]
+        x1 = ex + s1 * cand[q, 4]
+        y1 = ey + s1 * cand[q, 5]
+        cand[q, 8] = x0
+        cand[q, 9] = y0
+        cand[q, 10] = x1
+        cand[q, 11] = y1
+        rho_i = _reach_from_cos(l_alpha, s0, s1, cand[q, 6])
+        cand[q, 12] = rho_i
+        if step < free_until[i]:
+            return q
+        bi = buffer[i]
+        best = 1e300
+        # free_margin: smallest disk bound beyond what matters, over all neighbours. The
+        # disk bound |b_i - b_j| - rho_i - rho_j shrinks by at most free_step per step
+        # (each reach changes by at most seg_end * step), so it stays clear for
+        # free_margin / free_step steps.
+        free_margin = 1e300
+        for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
+            j = nbr_idx[k]
+            th = bi + buffer[j] + margin
+            lb = nbr_dist[k] - rho_i - rho[j]
+            fm = lb - max(th, free_ref)
+            if fm < free_margin:
+                free_margin = fm
+            if lb > th:
+                continue
+            d = segment_distance(x0, y0, x1, y1, seg[j, 0], seg[j, 1], seg[j, 2], seg[j, 3]) - th
+            if d < best:
+                best = d
+                if d <= 0.0:
+                    break
+        if best > 0.0:
+            th = bi + fid_buffer + margin
+            for k in range(fid_ptr[i], fid_ptr[i + 1]):
+                f = fid_idx[k]
+                fm = math.hypot(fid_xy[f, 0] - bx, fid_xy[f, 1] - by) - rho_i - max(th, free_ref)
+                if fm < free_margin:
+                    free_margin = fm
+                d = point_segment_distance(fid_xy[f, 0], fid_xy[f, 1], x0, y0, x1, y1) - th
+                if d < best:
+                    best = d
+                    if d <= 0.0:
+                        break
+        if best > 0.0 and free_margin > 0.0 and margin == md:
+            free_until[i] = step + int(free_margin / free_step) - 2
+        return q if best > 0.0 else -1
+
+
+    def encroached(i, margin):
+        """Eq. 10: is any neighbour within buffer_i + buffer_j + margin of robot i now?"""
+        hit = False
+        for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
+            j = nbr_idx[k]
+            th = buffer[i] + buffer[j] + margin
+            if nbr_dist[k] - rho[i] - rho[j] > th:
+                continue
+            if segment_distance(seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3],
+                                seg[j, 0], seg[j, 1], seg[j, 2], seg[j, 3]) <= th:
+                hit = True
+                break
+        return hit
+
+    def energy(i, x0, y0, x1, y1, rho_i, step):
+        """Eq. 9: sum of 1/D^2 over the neighbours of a candidate segment of robot i, mm^-2.
+
+        Neighbours whose disk bound puts them beyond ENERGY_CUTOFF_MM are left out: their
+        term is < 1/cutoff^2 and, more to the point, changes between the 9 candidates by
+        < 2 MD / cutoff^3, too little to reorder candidates that near neighbours separate.
+        """
+        e = 0.0
+        if step < free_until[i]:
+            return e
+        for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
+            j = nbr_idx[k]
+            if nbr_dist[k] - rho_i - rho[j] > ENERGY_CUTOFF_MM:
+                continue
+            d = segment_distance(x0, y0, x1, y1, seg[j, 0], seg[j, 1], seg[j, 2], seg[j, 3])
+            e += 1.0 / max(d * d, 1e-12)
+        return e
+
+    def commit(i, q, s1):
+        """Copy candidate q's state into robot i's state."""
+        for k in range(6):
+            trig[i, k] = cand[q, 2 + k]
+        for k in range(4):
+            seg[i, k] = cand[q, 8 + k]
+        rho[i] = cand[q, 12]
+
+    def record(i, step, ca, cb, ma, mb, n_ev):
+        """Breakpoint at (step - 1, current angles) when robot i's move vector changes."""
+        if n_ev < 0:
+            return n_ev
+        if abs(ma - last[i, 0]) > ANGLE_EPS or abs(mb - last[i, 1]) > ANGLE_EPS:
+            if n_ev >= cap:
+                return -1
+            ev_robot[n_ev] = i
+            ev_step[n_ev] = step - 1
+            ev_angles[n_ev, 0] = ca
+            ev_angles[n_ev, 1] = cb
+            last[i, 0] = ma
+            last[i, 1] = mb
+            return n_ev + 1
+        return n_ev
+
+    n_ev = 0
+    step = 0
+    n_awake = 1
+    moves_before = -1
+    while step < max_steps and n_left > 0:
+        # quiescent: nothing moved and nobody awake -> nothing can ever change
+        if n_moves == moves_before and n_awake == 0:
+            break
+        moves_before = n_moves
+        n_awake = 0
+        step += 1
+        for i in range(n):
+            if not movable[i] or (greedy and home[i]):
+                continue
+            if asleep_at[i] >= 0:
+                woken = False
+                for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
+                    if moved_at[nbr_idx[k]] > asleep_at[i]:
+                        woken = True
+                        break
+                if not woken:
+                    continue
+                asleep_at[i] = -1
+            ca = cur[i, 0]
+            cb = cur[i, 1]
+            da = dest[i, 0]
+            db = dest[i, 1]
+            bx = base_xy[i, 0]
+            by = base_xy[i, 1]
+            s1 = seg_end[i]
+            bi = buffer[i]
+
+            if home[i]:
+                # MC only (Eq. 10): stay unless a neighbour encroaches
+                if not encroached(i, 3.0 * md):
+                    asleep_at[i] = n_moves
+                    n_ev = record(i, step, ca, cb, 0.0, 0.0, n_ev)
+                    continue
+
+            best = -1
+            n_valid_moves = 0
+            ka_best = _sign(da - ca)
+            kb_best = _sign(db - cb)
+            if greedy:
+                # the obvious move (best step on each axis) has the least cost: try it first
+                cand[0, 0] = _toward(ca, da, ka_best, step_deg, a_lo, a_hi)
+                cand[0, 1] = _toward(cb, db, kb_best, step_deg, b_lo, b_hi)
+                best = try_cand(0, i, ca, cb, bx, by, s1, md, step)
+            if best < 0:
+                # all 9 moves in {-d, 0, +d}^2, clipped
+                c = 0
+                obvious = -1
+                for ka in (-1, 0, 1):
+                    for kb in (-1, 0, 1):
+                        na = _toward(ca, da, ka, step_deg, a_lo, a_hi)
+                        nb = _toward(cb, db, kb, step_deg, b_lo, b_hi)
+                        cand[c, 0] = na
+                        cand[c, 1] = nb
+                        ea = na - da
+                        eb = nb - db
+                        cost[c] = ea * ea + eb * eb
+                        order[c] = c
+                        if ka == ka_best and kb == kb_best:
+                            obvious = c
+                        c += 1
+            if greedy and best < 0:
+                for p in range(1, 9):
+                    q = order[p]
+                    r = p - 1
+                    while r >= 0 and cost[order[r]] > cost[q]:
+                        order[r + 1] = order[r]
+                        r -= 1
+                    order[r + 1] = q
+                for p in range(9):
+                    q = order[p]
+                    if q == obvious:
+                        continue
+                    if cand[q, 0] == ca and cand[q, 1] == cb:
+                        break  # staying beats every remaining candidate
+                    best = try_cand(q, i, ca, cb, bx, by, s1, md, step)
+                    if best >= 0:
+                        break
+            elif not greedy:
+                # Markov chain: random order; energy or cost; accept with prob. greed
+                for p in range(8, 0, -1):
+                    r = np.random.randint(0, p + 1)
+                    t = order[p]
+                    order[p] = order[r]
+                    order[r] = t
+                use_energy = np.random.random() < phobia
+                best_score = 1e300
+                for p in range(9):
+                    q = order[p]
+                    is_stay = cand[q, 0] == ca and cand[q, 1] == cb
+                    if use_energy:
+                        try_cand(q, i, ca, cb, bx, by, s1, md, step, False)
+                        score = energy(i, cand[q, 8], cand[q, 9], cand[q, 10], cand[q, 11],
+                                       cand[q, 12], step)
+                    else:
+                        score = cost[q]
+                    take = False
+                    if score < best_score:
+                        take = np.random.random() < greed[i]
+                    elif score == best_score:
+                        take = np.random.random() < 0.5
+                    # the step rule is checked only for a candidate that would be taken;
+                    # the outcome is the same as checking every candidate first
+                    if not take or try_cand(q, i, ca, cb, bx, by, s1, md, step) < 0:
+                        continue
+                    if not is_stay:
+                        n_valid_moves += 1
+                    best = q
+                    best_score = score
+
+            if best < 0 or (cand[best, 0] == ca and cand[best, 1] == cb):
+                # stay. GC: the choice cannot change until a neighbour moves, so sleep.
+                # MC: sleep only when no move at all passes the step rule.
+                sleep = greedy
+                if not greedy and n_valid_moves == 0:
+                    sleep = True
+                    for q in range(9):
+                        if cand[q, 0] == ca and cand[q, 1] == cb:
+                            continue
+                        if try_cand(q, i, ca, cb, bx, by, s1, md, step) >= 0:
+                            sleep = False
+                            break
+                if sleep:
+                    asleep_at[i] = n_moves
+                else:
+                    n_awake += 1
+                n_ev = record(i, step, ca, cb, 0.0, 0.0, n_ev)
+                continue
+
+            # commit the move (cand row holds the segment state computed by _try)
+            na = cand[best, 0]
+            nb = cand[best, 1]
+            n_ev = record(i, step, ca, cb, na - ca, nb - cb, n_ev)
+            cur[i, 0] = na
+            cur[i, 1] = nb
+            commit(i, best, s1)
+            n_moves += 1
+            moved_at[i] = n_moves
+            n_awake += 1
+            now_home = abs(na - da) < ANGLE_EPS and abs(nb - db) < ANGLE_EPS
+            if now_home and not home[i]:
+                n_left -= 1
+            elif home[i] and not now_home:
+                n_left += 1
+            home[i] = now_home
+    return n_ev, step

@@ -1,0 +1,142 @@
+"""Target configurations: seeded random assignment (Sayres 2021 Sect. 4.1) and checks.
+
+A target is an (alpha, beta) configuration in degrees. Random targets put the fiber
+uniformly in the patrol annulus, right-armed, and are redrawn until the robot's capsule
+is clear of every robot already assigned and of every fiducial.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from models.errors import TargetError
+from models.geometry2d import beta_segment, point_segment_distance, segment_distance
+from models.kinematics import sample_patrol_zone
+
+#: Draws per robot before random assignment gives up.
+POOL_SIZE = 256
+
+
+@njit(cache=True)
+def _assign_from_pool(base_xy, pool, fixed, order, nbr_ptr, nbr_idx, fid_ptr, fid_idx, fid_xy,
+                      fid_buffer, l_alpha, seg_start, seg_end, buffer, margin, out):
+    """Pick for each robot (in ``order``) the first pool entry clear of assigned robots.
+
+    pool : (n, k, 2) candidate configurations; fixed : (n,) bool, robots whose ``out``
+    row is already set (offline robots, kept targets). Returns the index of the first
+    robot for which no candidate fits, or -1.
+    """
+    n = base_xy.shape[0]
+    assigned = fixed.copy()
+    for oi in range(order.shape[0]):
+        i = order[oi]
+        if fixed[i]:
+            continue
+        found = False
+        for c in range(pool.shape[1]):
+            a = pool[i, c, 0]
+            b = pool[i, c, 1]
+            x0, y0, x1, y1 = beta_segment(base_xy[i, 0], base_xy[i, 1], a, b, l_alpha, seg_start,
+                                          seg_end[i])
+            ok = True
+            for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
+                j = nbr_idx[k]
+                if not assigned[j]:
+                    continue
+                u0, v0, u1, v1 = beta_segment(base_xy[j, 0], base_xy[j, 1], out[j, 0], out[j, 1],
+                                              l_alpha, seg_start, seg_end[j])
+                if segment_distance(x0, y0, x1, y1, u0, v0, u1, v1) <= buffer[i] + buffer[j] + margin:
+                    ok = False
+                    break
+            if ok:
+                for k in range(fid_ptr[i], fid_ptr[i + 1]):
+                    f = fid_idx[k]
+                    if point_segment_distance(fid_xy[f, 0], fid_xy[f, 1], x0, y0, x1, y1) <= \
+                            buffer[i] + fid_buffer + margin:
+                        ok = False
+                        break
+            if ok:
+                out[i, 0] = a
+                out[i, 1] = b
+                assigned[i] = True
+                found = True
+                break
+        if not found:
+            return i
+    return -1
+
+
+def random_targets(geom, rng: np.random.Generator, *, fixed: np.ndarray | None = None,
+                   initial: np.ndarray | None = None, margin_mm: float = 0.0,
+                   robots: np.ndarray | None = None) -> np.ndarray:
+    """Seeded random right-armed, mutually clear targets.
+
+    Parameters
+    ----------
+    geom : models.array.ArrayGeometry
+        Layout, spec and buffers of the array.
+    rng : numpy Generator
+    fixed : (n,) bool, robots that keep their row of ``initial`` (offline robots, or
+        targets already assigned when only a few are redrawn).
+    initial : (n, 2) deg, rows for fixed robots.
+    margin_mm : extra clearance beyond Eq. 3 (the reverse planner uses its MD so that no
+        robot starts inside another's step-rule band).
+    robots : indices to (re)draw, in this order; default all non-fixed robots in index
+        order, as in the paper.
+
+    Returns
+    -------
+    (n, 2) float64 configurations, deg.
+    """
+    n = geom.n_robots
+    out = np.zeros((n, 2)) if initial is None else np.array(initial, dtype=np.float64)
+    fixed_mask = np.zeros(n, dtype=bool) if fixed is None else np.asarray(fixed, dtype=bool).copy()
+    if robots is None:
+        order = np.flatnonzero(~fixed_mask)
+    else:
+        order = np.asarray(robots, dtype=np.int64)
+        fixed_mask[order] = False
+    spec = geom.spec
+    pool = np.zeros((n, POOL_SIZE, 2))
+    draws = sample_patrol_zone(rng, order.size * POOL_SIZE, spec.alpha_length_mm, spec.beta_length_mm)
+    pool[order] = draws.reshape(order.size, POOL_SIZE, 2)
+    bad = _assign_from_pool(geom.base_xy, pool, fixed_mask, order, geom.nbr_ptr, geom.nbr_idx,
+                            geom.fid_ptr, geom.fid_idx, geom.fid_xy, geom.fiducial_buffer,
+                            spec.alpha_length_mm, spec.segment_start_mm, geom.seg_end, geom.buffer,
+                            margin_mm, out)
+    if bad >= 0:
+        raise TargetError(f"robot {int(geom.robot_ids[bad])}: no clear random target found in "
+                          f"{POOL_SIZE} draws (buffer {geom.buffer[bad]:.3f} mm is too crowded)")
+    return out
+
+
+def check_targets(geom, targets: np.ndarray, movable: np.ndarray | None = None) -> None:
+    """Raise TargetError if targets are NaN, out of range, or collide (Eq. 3).
+
+    targets : (n, 2) deg. The message names the robot(s), the field and the allowed range.
+    """
+    spec = geom.spec
+    targets = np.asarray(targets, dtype=np.float64)
+    if targets.shape != (geom.n_robots, 2):
+        raise TargetError(f"targets: shape {targets.shape}; allowed: ({geom.n_robots}, 2) "
+                          "(one (alpha, beta) row per robot)")
+    for axis, col, (lo, hi) in (("alpha", 0, spec.alpha_limits_deg), ("beta", 1, spec.beta_limits_deg)):
+        v = targets[:, col]
+        bad = np.flatnonzero(~np.isfinite(v) | (v < lo) | (v > hi))
+        if bad.size:
+            k = int(bad[0])
+            raise TargetError(f"robot {int(geom.robot_ids[k])}: field '{axis}' = {v[k]!r}; "
+                              f"allowed: [{lo}, {hi}] deg")
+    d = geom.pair_clearance(targets)
+    hit = np.flatnonzero(d <= 0.0)
+    if hit.size:
+        i, j = geom.pairs[hit[0]]
+        raise TargetError(f"robots {int(geom.robot_ids[i])} and {int(geom.robot_ids[j])}: targets "
+                          f"collide (capsules overlap by {-d[hit[0]]:.3f} mm; allowed: clearance > 0 "
+                          f"at buffer {geom.buffer[i]:.3f} mm); {hit.size} colliding pair(s) in all")
+    fd = geom.fiducial_clearance(targets)
+    hit = np.flatnonzero(fd <= 0.0)
+    if hit.size:
+        i, f = geom.robot_fid_pairs[hit[0]]
+        raise TargetError(f"robot {int(geom.robot_ids[i])}: target collides with fiducial "
+                          f"{int(geom.fiducial_ids[f])} (overlap {-fd[hit[0]]:.3f} mm)")

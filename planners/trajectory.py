@@ -1,0 +1,219 @@
+"""Trajectory: per robot and axis, breakpoints (time s, angle deg), linearly interpolated.
+
+This is exactly what the robot firmware takes. Sampling on a common time base gives
+``(n_times, n_robots, 2)`` arrays for checkers and the simulator. The JSON form is the
+one SDSS-V's control software takes::
+
+    {"<robot_id>": {"alpha": [[deg, s], ...], "beta": [[deg, s], ...]}, ...}
+
+Before the first breakpoint an axis holds its first angle, after the last its last.
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from models.errors import TrajectoryError
+
+AXES = ("alpha", "beta")
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Breakpoint paths for a set of robots.
+
+    Attributes
+    ----------
+    robot_ids : (n,) int64
+    times : list of 2 lists (alpha, beta) of n arrays (k,) float64, s, non-decreasing
+    angles : list of 2 lists (alpha, beta) of n arrays (k,) float64, deg
+    """
+
+    robot_ids: np.ndarray
+    times: tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]
+    angles: tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]
+
+    def __post_init__(self) -> None:
+        for ax in range(2):
+            if len(self.times[ax]) != self.n_robots or len(self.angles[ax]) != self.n_robots:
+                raise TrajectoryError(f"axis {AXES[ax]}: {len(self.times[ax])} paths for "
+                                      f"{self.n_robots} robots")
+            for i in range(self.n_robots):
+                t, a = self.times[ax][i], self.angles[ax][i]
+                rid = int(self.robot_ids[i])
+                if t.ndim != 1 or t.shape != a.shape or t.size == 0:
+                    raise TrajectoryError(f"robot {rid}: axis {AXES[ax]} needs matching non-empty "
+                                          "time and angle lists")
+                if not (np.all(np.isfinite(t)) and np.all(np.isfinite(a))):
+                    raise TrajectoryError(f"robot {rid}: axis {AXES[ax]} has NaN/inf; allowed: "
+                                          "finite numbers")
+                if np.any(np.diff(t) < 0):
+                    raise TrajectoryError(f"robot {rid}: axis {AXES[ax]} times decrease; allowed: "
+                                          "non-decreasing times")
+
+    # -- construction ---------------------------------------------------------
+    @classmethod
+    def from_breakpoints(cls, robot_ids, times_a, angles_a, times_b, angles_b) -> Trajectory:
+        """From per-robot arrays; drops points that linear interpolation does not need."""
+        ta, aa, tb, ab = [], [], [], []
+        for i in range(len(robot_ids)):
+            t, a = simplify_exact(np.asarray(times_a[i], float), np.asarray(angles_a[i], float))
+            ta.append(t)
+            aa.append(a)
+            t, a = simplify_exact(np.asarray(times_b[i], float), np.asarray(angles_b[i], float))
+            tb.append(t)
+            ab.append(a)
+        return cls(np.asarray(robot_ids, dtype=np.int64), (tuple(ta), tuple(tb)), (tuple(aa), tuple(ab)))
+
+    @classmethod
+    def from_plan(cls, plan) -> Trajectory:
+        """Times = step index x step duration of a :class:`planners.plan.Plan`."""
+        ta, aa, tb, ab = [], [], [], []
+        for i in range(plan.n_robots):
+            steps, ang = plan.path(i)
+            t = steps * plan.step_s
+            ta.append(t)
+            aa.append(ang[:, 0])
+            tb.append(t)
+            ab.append(ang[:, 1])
+        return cls.from_breakpoints(plan.robot_ids, ta, aa, tb, ab)
+
+    # -- queries --------------------------------------------------------------
+    @property
+    def n_robots(self) -> int:
+        return int(len(self.robot_ids))
+
+    @property
+    def duration(self) -> float:
+        """Time of the last breakpoint of any axis, s."""
+        return max(float(t[-1]) for ax in self.times for t in ax) if self.n_robots else 0.0
+
+    def sample(self, times: np.ndarray) -> np.ndarray:
+        """Angles at the given times: (len(times), n, 2) deg."""
+        times = np.asarray(times, dtype=np.float64)
+        out = np.empty((times.size, self.n_robots, 2))
+        for ax in range(2):
+            for i in range(self.n_robots):
+                out[:, i, ax] = np.interp(times, self.times[ax][i], self.angles[ax][i])
+        return out
+
+    def start(self) -> np.ndarray:
+        """(n, 2) first angles, deg."""
+        return np.array([[self.angles[0][i][0], self.angles[1][i][0]] for i in range(self.n_robots)])
+
+    def end(self) -> np.ndarray:
+        """(n, 2) last angles, deg."""
+        return np.array([[self.angles[0][i][-1], self.angles[1][i][-1]] for i in range(self.n_robots)])
+
+    def max_speed(self) -> np.ndarray:
+        """(n, 2) largest |d angle / dt| of each robot's axes, deg/s (inf for a jump)."""
+        out = np.zeros((self.n_robots, 2))
+        for ax in range(2):
+            for i in range(self.n_robots):
+                dt = np.diff(self.times[ax][i])
+                da = np.abs(np.diff(self.angles[ax][i]))
+                if da.size:
+                    with np.errstate(divide="ignore", invalid="ignore"):
+                        v = np.where(dt > 0, da / np.where(dt > 0, dt, 1.0), np.where(da > 0, np.inf, 0.0))
+                    out[i, ax] = float(v.max())
+        return out
+
+    def point_counts(self) -> np.ndarray:
+        """(n, 2) number of breakpoints per robot and axis."""
+        return np.array([[self.times[0][i].size, self.times[1][i].size] for i in range(self.n_robots)])
+
+    def reversed(self) -> Trajectory:
+        """The same motion played backwards over [0, duration]."""
+        T = self.duration
+        times = tuple(tuple(T - t[::-1] for t in ax) for ax in self.times)
+        angles = tuple(tuple(a[::-1] for a in ax) for ax in self.angles)
+        return Trajectory(self.robot_ids, times, angles)
+
+    # -- JSON -------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        """The SDSS-V control-software form: {id: {"alpha": [[deg, s]...], "beta": ...}}."""
+        out = {}
+        for i, rid in enumerate(self.robot_ids):
+            out[str(int(rid))] = {
+                AXES[ax]: [[float(a), float(t)] for a, t in zip(self.angles[ax][i], self.times[ax][i])]
+                for ax in range(2)
+            }
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict, source: str = "<dict>") -> Trajectory:
+        if not isinstance(data, dict) or not data:
+            raise TrajectoryError(f"{source}: expected an object of robot ids")
+        ids, times, angles = [], ([], []), ([], [])
+        for key, axes in data.items():
+            try:
+                rid = int(key)
+            except ValueError:
+                raise TrajectoryError(f"{source}: robot id {key!r} is not an integer") from None
+            if not isinstance(axes, dict) or set(axes) != set(AXES):
+                raise TrajectoryError(f"{source}: robot {rid}: needs exactly the keys 'alpha' and 'beta'")
+            ids.append(rid)
+            for ax, name in enumerate(AXES):
+                try:
+                    arr = np.asarray(axes[name], dtype=np.float64).reshape(-1, 2)
+                except (TypeError, ValueError):
+                    raise TrajectoryError(f"{source}: robot {rid}: axis {name} must be a list of "
+                                          "[deg, s] pairs") from None
+                angles[ax].append(arr[:, 0].copy())
+                times[ax].append(arr[:, 1].copy())
+        return cls(np.asarray(ids, dtype=np.int64), (tuple(times[0]), tuple(times[1])),
+                   (tuple(angles[0]), tuple(angles[1])))
+
+    def to_json(self, path: str | Path) -> None:
+        """Write atomically (temp file + rename)."""
+        atomic_write_text(path, json.dumps(self.to_dict(), separators=(",", ":")))
+
+    @classmethod
+    def from_json(cls, path: str | Path) -> Trajectory:
+        path = Path(path)
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise TrajectoryError(f"{path}: file not found") from None
+        except json.JSONDecodeError as exc:
+            raise TrajectoryError(f"{path}: malformed JSON: {exc}") from None
+        return cls.from_dict(data, str(path))
+
+
+def simplify_exact(t: np.ndarray, a: np.ndarray, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """Drop interior points lying on the line through their neighbours (within tol deg)."""
+    if t.size <= 2:
+        return t.copy(), a.copy()
+    keep = np.ones(t.size, dtype=bool)
+    # drop repeated (t, a) points first
+    dup = (np.diff(t) == 0) & (np.diff(a) == 0)
+    keep[1:][dup] = False
+    t, a = t[keep], a[keep]
+    if t.size <= 2:
+        return t, a
+    t0, t1, t2 = t[:-2], t[1:-1], t[2:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac = np.where(t2 > t0, (t1 - t0) / (t2 - t0), 0.0)
+    pred = a[:-2] + frac * (a[2:] - a[:-2])
+    inner_keep = ~((np.abs(pred - a[1:-1]) <= tol) & (t2 > t0))
+    keep = np.concatenate([[True], inner_keep, [True]])
+    return t[keep], a[keep]
+
+
+def atomic_write_text(path: str | Path, text: str) -> None:
+    """Write text to a temp file in the same folder, then rename over ``path``."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise

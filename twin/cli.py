@@ -1,0 +1,263 @@
+"""The `rfp-twin` command line (typer + rich).
+
+Every rfp-twin error (bad spec, layout, targets, ids ...) is printed on one line and the
+command exits non-zero; nothing half-written is left behind.
+"""
+from __future__ import annotations
+
+import csv
+import sys
+import time
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from models.array import ArrayGeometry
+from models.errors import LayoutError, RfpError, TargetError
+from models.kinematics import inverse
+from models.layout import Layout
+from models.robot import load_spec
+from planners.plan import DEADLOCKED
+from planners.solver import ALGORITHMS, DIRECTIONS, PlannerSettings, plan_reconfiguration
+from planners.stepwise import max_displacement
+from planners.targets import random_targets
+from planners.trajectory import Trajectory
+from twin.run_dir import write_run
+from validation.checker2d import check_trajectory
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+                  help="Digital twin of robotic fiber positioner arrays.")
+console = Console(stderr=False)
+err_console = Console(stderr=True)
+
+
+
+@app.callback()
+def _root() -> None:
+    """rfp-twin: plan, validate, simulate and render robotic fiber positioner arrays."""
+
+
+#: Exit codes.
+EXIT_BAD_INPUT = 2
+EXIT_INCOMPLETE = 3
+EXIT_COLLISION = 4
+
+
+def resolve_layout(name: str, pitch_mm: float) -> Layout:
+    """Layout from a name: ``sdss-v-fps`` (the real 500-robot instrument), ``sdss-v-547``
+    (the paper's all-robot grid), ``hex:N`` (N positions or N rings when N < 37), or a CSV path."""
+    if name == "sdss-v-fps":
+        return Layout.sdss_v_fps()
+    if name == "sdss-v-547":
+        return Layout.sdss_v_grid(pitch_mm=pitch_mm)
+    if name.startswith("hex:"):
+        try:
+            n = int(name[4:])
+        except ValueError:
+            raise LayoutError(f"layout {name!r}: 'hex:N' needs an integer N") from None
+        if n < 37:
+            return Layout.hex_grid(n, pitch_mm)
+        return Layout.hex_grid_positions(n, pitch_mm)
+    path = Path(name)
+    if path.suffix.lower() != ".csv" and not path.exists():
+        raise LayoutError(f"layout {name!r}: allowed: sdss-v-fps, sdss-v-547, hex:N or a CSV file")
+    return Layout.from_csv(path, min_separation_mm=min(1.0, pitch_mm / 4))
+
+
+def read_targets_csv(path: Path, geom: ArrayGeometry) -> np.ndarray:
+    """Targets from CSV: ``robot_id`` and either ``alpha_deg,beta_deg`` or ``x_mm,y_mm``
+    (fiber position; right-armed inverse kinematics). Every robot needs a row."""
+    spec = geom.spec
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
+    except FileNotFoundError:
+        raise TargetError(f"{path}: targets file not found") from None
+    if not rows:
+        raise TargetError(f"{path}: no target rows")
+    cols = set(rows[0])
+    by_angles = {"alpha_deg", "beta_deg"} <= cols
+    by_xy = {"x_mm", "y_mm"} <= cols
+    if "robot_id" not in cols or not (by_angles or by_xy):
+        raise TargetError(f"{path}: columns {sorted(cols)}; allowed: robot_id with alpha_deg,beta_deg "
+                          "or x_mm,y_mm")
+    vals = np.full((geom.n_robots, 2), np.nan)
+    index = {int(r): k for k, r in enumerate(geom.robot_ids)}
+    keys = ("alpha_deg", "beta_deg") if by_angles else ("x_mm", "y_mm")
+    for line, row in enumerate(rows, start=2):
+        try:
+            rid = int(row["robot_id"])
+            v = [float(row[k]) for k in keys]
+        except (TypeError, ValueError):
+            raise TargetError(f"{path}:{line}: robot_id must be an integer and {keys} numbers") from None
+        if rid not in index:
+            raise TargetError(f"{path}:{line}: unknown robot id {rid}; allowed ids: "
+                              f"{int(geom.robot_ids.min())}..{int(geom.robot_ids.max())}")
+        if not np.all(np.isfinite(v)):
+            raise TargetError(f"{path}:{line}: robot {rid}: NaN/inf target; allowed: finite numbers")
+        vals[index[rid]] = v
+    missing = np.flatnonzero(np.isnan(vals[:, 0]))
+    if missing.size:
+        raise TargetError(f"{path}: robot {int(geom.robot_ids[missing[0]])} has no target row "
+                          f"({missing.size} robot(s) missing)")
+    if by_xy:
+        vals = inverse(geom.base_xy, vals, spec.alpha_length_mm, spec.beta_length_mm,
+                       right_arm=True, ids=geom.robot_ids)
+    return vals
+
+
+def parse_offline(items: list[str], spec) -> dict[int, tuple[float, float]]:
+    """``ID`` (parked folded) or ``ID:ALPHA:BETA`` -> {id: (alpha, beta)}."""
+    out: dict[int, tuple[float, float]] = {}
+    for item in items:
+        for part in filter(None, item.split(",")):
+            bits = part.split(":")
+            try:
+                rid = int(bits[0])
+                ang = (float(bits[1]), float(bits[2])) if len(bits) == 3 else tuple(spec.fold_deg)
+            except (ValueError, IndexError):
+                raise TargetError(f"--offline {part!r}; allowed: ID or ID:ALPHA:BETA") from None
+            if len(bits) not in (1, 3):
+                raise TargetError(f"--offline {part!r}; allowed: ID or ID:ALPHA:BETA")
+            out[rid] = ang
+    return out
+
+
+@app.command()
+def plan(
+    preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
+    layout: Optional[str] = typer.Option(None, help="sdss-v-fps | sdss-v-547 | hex:N | CSV file "
+                                         "[default: sdss-v-fps for SDSS-V presets, hex:547 otherwise]"),
+    buffer: Optional[float] = typer.Option(None, help="Collision buffer sigma_cb, mm [default: preset]."),
+    step: float = typer.Option(0.1, help="Angular step, deg."),
+    algorithm: str = typer.Option("greedy", help="greedy | markov"),
+    greed: float = typer.Option(0.9, help="Markov greed, [0, 1]."),
+    phobia: float = typer.Option(0.3, help="Markov phobia, [0, 1]."),
+    seed: int = typer.Option(0, help="Seed of targets, Markov moves and replacements."),
+    offline: list[str] = typer.Option([], help="Offline robot: ID (parked folded) or ID:ALPHA:BETA; "
+                                      "repeat or comma-separate."),
+    targets: Optional[Path] = typer.Option(None, help="Targets CSV (robot_id + alpha_deg,beta_deg or "
+                                           "x_mm,y_mm) [default: seeded random]."),
+    direction: str = typer.Option("reverse", help="reverse (targets->fold, reversed) | forward"),
+    resolve: bool = typer.Option(True, help="Replace one target per deadlocked group and re-plan."),
+    max_steps: Optional[int] = typer.Option(None, help="Step limit [default: 1000 deg / step]."),
+    out: Path = typer.Option(Path("out/plan"), help="Output folder (must not exist unless --force)."),
+    force: bool = typer.Option(False, help="Replace an existing output folder."),
+) -> None:
+    """Plan a collision-free reconfiguration fold -> targets and write a run folder."""
+    t_start = time.perf_counter()
+    spec = load_spec(preset)
+    if buffer is not None:
+        spec = spec.with_overrides(buffer_mm=buffer)
+    if layout is None:
+        layout = "sdss-v-fps" if spec.name.startswith("sdss-v") else "hex:547"
+    if algorithm not in ALGORITHMS:
+        raise RfpError(f"--algorithm {algorithm!r}; allowed: {', '.join(ALGORITHMS)}")
+    if direction not in DIRECTIONS:
+        raise RfpError(f"--direction {direction!r}; allowed: {', '.join(DIRECTIONS)}")
+    lay = resolve_layout(layout, spec.pitch_mm)
+    geom = ArrayGeometry(spec, lay, spec.buffer_mm)
+    settings = PlannerSettings(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,
+                               direction=direction, max_steps=max_steps)
+    rng = np.random.default_rng(seed)
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
+    off = parse_offline(offline, spec)
+    if targets is None:
+        fixed = np.zeros(geom.n_robots, dtype=bool)
+        init = np.zeros((geom.n_robots, 2))
+        for rid, ang in off.items():
+            k = lay.robot_index(rid)
+            fixed[k] = True
+            init[k] = ang
+        tg = random_targets(geom, rng, fixed=fixed, initial=init, margin_mm=md)
+    else:
+        tg = read_targets_csv(targets, geom)
+
+    with Progress(TextColumn("[bold]planning[/] {task.description}"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} rounds"), TimeElapsedColumn(),
+                  console=err_console, transient=True) as progress:
+        task = progress.add_task(f"{geom.n_robots} robots, {algorithm}", total=settings.max_rounds + 1)
+
+        def on_round(rnd: int, n_stuck: int) -> None:
+            progress.update(task, completed=rnd + 1,
+                            description=f"{geom.n_robots} robots, {algorithm}: {n_stuck} deadlocked")
+
+        result = plan_reconfiguration(geom, tg, settings, rng, offline=off, resolve=resolve,
+                                      progress=on_round)
+        progress.update(task, completed=settings.max_rounds + 1)
+
+    traj = Trajectory.from_plan(result)
+    check = check_trajectory(traj, spec, lay, spec.buffer_mm)
+    m = dict(result.metrics)
+    summary = {
+        "command": " ".join(["rfp-twin"] + sys.argv[1:]),
+        "spec": spec.source, "robot": spec.name, "layout": layout, "n_robots": geom.n_robots,
+        "n_fiducials": lay.n_fiducials, "buffer_mm": spec.buffer_mm,
+        "segment_mm": [spec.segment_start_mm, spec.segment_end(spec.buffer_mm)],
+        "step_deg": step, "algorithm": algorithm, "greed": greed if algorithm == "markov" else 1.0,
+        "phobia": phobia if algorithm == "markov" else 0.0, "seed": seed, "direction": direction,
+        "resolve": resolve, "max_steps": settings.steps_limit, "offline": sorted(off),
+        "fold_deg": list(spec.fold_deg), "speed_deg_s": list(spec.max_speed_deg_s),
+        "metrics": m, "duration_s": traj.duration,
+        "points_per_axis_median": float(np.median(traj.point_counts())),
+        "points_per_axis_max": int(traj.point_counts().max()),
+        "check2d": check.to_dict(),
+        "wall_time_s": time.perf_counter() - t_start,
+    }
+    if not check.ok:
+        err_console.print(f"[red]error:[/] the plan fails the 2D check: {len(check.collisions)} "
+                          f"collision(s), min clearance {check.min_clearance_mm:.4f} mm; nothing written")
+        raise typer.Exit(EXIT_COLLISION)
+    write_run(out, spec=spec, layout=lay, plan=result, trajectory=traj, summary=summary,
+              check2d=summary["check2d"], overwrite=force)
+    print_summary(summary, out)
+    n_dead = int(np.sum(result.status == DEADLOCKED))
+    if n_dead:
+        err_console.print(f"[red]error:[/] {n_dead} robot(s) still deadlocked after "
+                          f"{m['rounds']} round(s); see {out}/targets.csv")
+        raise typer.Exit(EXIT_INCOMPLETE)
+
+
+def print_summary(summary: dict, out: Path) -> None:
+    m = summary["metrics"]
+    c = summary["check2d"]
+    t = Table(title=f"rfp-twin plan -> {out}", show_header=True)
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    rows = [
+        ("robots (offline)", f"{summary['n_robots']} ({m['n_offline']})"),
+        ("fiducials", str(summary["n_fiducials"])),
+        ("algorithm / direction", f"{summary['algorithm']} / {summary['direction']}"),
+        ("buffer / step", f"{summary['buffer_mm']:.3f} mm / {summary['step_deg']} deg"),
+        ("efficiency (Eq. 11)", f"{m['efficiency']:.4f}"),
+        ("convergence (1st run)", f"{m['convergence']:.4f}"),
+        ("targets replaced", str(m["n_replaced"])),
+        ("deadlocked", str(m["n_deadlocked"])),
+        ("fold time", f"{m['fold_time_s']:.2f} s"),
+        ("tau_pg / tau_sr", f"{m['tau_pg_s']:.3f} s / {m['tau_sr_s']:.3f} s"),
+        ("points per axis (median / max)",
+         f"{summary['points_per_axis_median']:.0f} / {summary['points_per_axis_max']}"),
+        ("2D check", f"{'clear' if c['ok'] else 'COLLISION'}, min clearance "
+                     f"{c['min_clearance_mm']:.4f} mm"),
+    ]
+    for k, v in rows:
+        t.add_row(k, v)
+    console.print(t)
+
+
+def main() -> None:
+    """Entry point that turns rfp-twin errors into one-line messages and exit code 2."""
+    try:
+        app()
+    except RfpError as exc:
+        err_console.print(f"[red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        sys.exit(EXIT_BAD_INPUT)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,119 @@
+"""A run folder: everything `rfp-twin plan` writes, written atomically.
+
+Files
+-----
+trajectories.json          fold -> targets, SDSS-V control-software form (deg, s)
+trajectories_to_fold.json  targets -> fold (the same motion played backwards)
+layout.csv                 the layout planned on (id, x_mm, y_mm, kind, ...)
+targets.csv                per robot: id, target and original target (deg, and fiber mm), status
+robot.toml                 the robot spec used (with the buffer planned at)
+summary.json               every parameter, every metric, the 2D check in brief
+check2d.json               the independent 2D check in full (per-pair minimum distances)
+
+The folder is assembled under a temporary name beside the destination and renamed into
+place only when complete, so an interrupted or failed run leaves no half-written folder.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from models.errors import RfpError
+from models.kinematics import forward
+from models.layout import Layout
+from models.robot import RobotSpec
+from planners.plan import Plan
+from planners.trajectory import Trajectory
+
+TRAJECTORIES = "trajectories.json"
+TRAJECTORIES_TO_FOLD = "trajectories_to_fold.json"
+LAYOUT = "layout.csv"
+TARGETS = "targets.csv"
+ROBOT = "robot.toml"
+SUMMARY = "summary.json"
+CHECK2D = "check2d.json"
+#: The per-pair lists of a check report, written to check2d.json only.
+_CHECK_ARRAYS = ("pair_ids", "pair_min_distance_mm", "fiducial_pair_ids", "fiducial_min_distance_mm")
+
+
+def spec_to_toml(spec: RobotSpec) -> str:
+    """Serialise a RobotSpec to the preset TOML form (round-trips through load_spec)."""
+    def val(v):
+        if isinstance(v, str):
+            return json.dumps(v)
+        if isinstance(v, tuple):
+            return "[" + ", ".join(repr(float(x)) for x in v) + "]"
+        return repr(float(v))
+
+    robot = ["name", "description", "alpha_length_mm", "beta_length_mm", "pitch_mm",
+             "alpha_limits_deg", "beta_limits_deg", "max_speed_deg_s", "max_accel_deg_s2",
+             "fold_deg", "angular_error_deg"]
+    coll = ["buffer_mm", "segment_start_mm", "segment_end_mm", "fiducial_buffer_mm"]
+    lines = ["[robot]"] + [f"{k} = {val(getattr(spec, k))}" for k in robot]
+    lines += ["", "[collision]"] + [f"{k} = {val(getattr(spec, k))}" for k in coll]
+    return "\n".join(lines) + "\n"
+
+
+def write_targets_csv(path: Path, spec: RobotSpec, layout: Layout, plan: Plan) -> None:
+    fiber, _ = forward(np.ascontiguousarray(layout.robot_xy), np.ascontiguousarray(plan.targets),
+                       spec.alpha_length_mm, spec.beta_length_mm)
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(["robot_id", "alpha_deg", "beta_deg", "x_mm", "y_mm", "status",
+                    "original_alpha_deg", "original_beta_deg"])
+        for i, rid in enumerate(plan.robot_ids):
+            w.writerow([int(rid), f"{plan.targets[i, 0]:.6f}", f"{plan.targets[i, 1]:.6f}",
+                        f"{fiber[i, 0]:.4f}", f"{fiber[i, 1]:.4f}", plan.status[i],
+                        f"{plan.original_targets[i, 0]:.6f}", f"{plan.original_targets[i, 1]:.6f}"])
+
+
+def write_run(out: Path, *, spec: RobotSpec, layout: Layout, plan: Plan, trajectory: Trajectory,
+              summary: dict, check2d: dict, overwrite: bool = False) -> Path:
+    """Write a complete run folder at ``out`` (atomically). Returns ``out``.
+
+    ``check2d`` is the full report of the independent 2D check; the summary keeps it
+    without the per-pair lists.
+    """
+    out = Path(out)
+    if out.exists() and not overwrite:
+        raise RfpError(f"output folder {out} exists; allowed: a new folder, or --force to replace it")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        trajectory.to_json(tmp / TRAJECTORIES)
+        trajectory.reversed().to_json(tmp / TRAJECTORIES_TO_FOLD)
+        layout.to_csv(tmp / LAYOUT)
+        write_targets_csv(tmp / TARGETS, spec, layout, plan)
+        (tmp / ROBOT).write_text(spec_to_toml(spec), encoding="utf-8")
+        brief = {k: v for k, v in check2d.items() if k not in _CHECK_ARRAYS}
+        (tmp / SUMMARY).write_text(json.dumps({**summary, "check2d": brief}, indent=2,
+                                              default=_json_default), encoding="utf-8")
+        (tmp / CHECK2D).write_text(json.dumps(check2d, default=_json_default), encoding="utf-8")
+        for f in tmp.iterdir():
+            f.chmod(0o644)
+        tmp.chmod(0o755)
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
+            os.replace(out, old / "run")
+            os.replace(tmp, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
+def _json_default(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
