@@ -68,7 +68,7 @@ def _assign_from_pool(base_xy, pool, fixed, order, nbr_ptr, nbr_idx, fid_ptr, fi
 
 def random_targets(geom, rng: np.random.Generator, *, fixed: np.ndarray | None = None,
                    initial: np.ndarray | None = None, margin_mm: float = 0.0,
-                   robots: np.ndarray | None = None) -> np.ndarray:
+                   robots: np.ndarray | None = None, attempts: int = 20) -> np.ndarray:
     """Seeded random right-armed, mutually clear targets.
 
     Parameters
@@ -83,11 +83,23 @@ def random_targets(geom, rng: np.random.Generator, *, fixed: np.ndarray | None =
         robot starts inside another's step-rule band).
     robots : indices to (re)draw, in this order; default all non-fixed robots in index
         order, as in the paper.
+    attempts : when some robot has no clear spot left (crowded buffers), the whole draw
+        starts again, up to this many times.
 
     Returns
     -------
     (n, 2) float64 configurations, deg.
     """
+    error = None
+    for _ in range(max(1, attempts)):
+        try:
+            return _draw_targets(geom, rng, fixed, initial, margin_mm, robots)
+        except TargetError as exc:
+            error = exc
+    raise error
+
+
+def _draw_targets(geom, rng, fixed, initial, margin_mm, robots) -> np.ndarray:
     n = geom.n_robots
     out = np.zeros((n, 2)) if initial is None else np.array(initial, dtype=np.float64)
     fixed_mask = np.zeros(n, dtype=bool) if fixed is None else np.asarray(fixed, dtype=bool).copy()
@@ -97,16 +109,32 @@ def random_targets(geom, rng: np.random.Generator, *, fixed: np.ndarray | None =
         order = np.asarray(robots, dtype=np.int64)
         fixed_mask[order] = False
     spec = geom.spec
-    pool = np.zeros((n, POOL_SIZE, 2))
-    draws = sample_patrol_zone(rng, order.size * POOL_SIZE, spec.alpha_length_mm, spec.beta_length_mm)
-    pool[order] = draws.reshape(order.size, POOL_SIZE, 2)
-    bad = _assign_from_pool(geom.base_xy, pool, fixed_mask, order, geom.nbr_ptr, geom.nbr_idx,
-                            geom.fid_ptr, geom.fid_idx, geom.fid_xy, geom.fiducial_buffer,
-                            spec.alpha_length_mm, spec.segment_start_mm, geom.seg_end, geom.buffer,
-                            margin_mm, out)
-    if bad >= 0:
-        raise TargetError(f"robot {int(geom.robot_ids[bad])}: no clear random target found in "
-                          f"{POOL_SIZE} draws (buffer {geom.buffer[bad]:.3f} mm is too crowded)")
+    args = (geom.nbr_ptr, geom.nbr_idx, geom.fid_ptr, geom.fid_idx, geom.fid_xy,
+            geom.fiducial_buffer, spec.alpha_length_mm, spec.segment_start_mm, geom.seg_end,
+            geom.buffer, margin_mm, out)
+    pos = 0
+    while pos < order.size:
+        rest = order[pos:]
+        pool = np.zeros((n, POOL_SIZE, 2))
+        draws = sample_patrol_zone(rng, rest.size * POOL_SIZE, spec.alpha_length_mm, spec.beta_length_mm)
+        pool[rest] = draws.reshape(rest.size, POOL_SIZE, 2)
+        bad = _assign_from_pool(geom.base_xy, pool, fixed_mask, rest, *args)
+        if bad < 0:
+            break
+        # a crowded spot: keep drawing for this robot alone, in larger batches
+        pos += int(np.flatnonzero(rest == bad)[0])
+        fixed_mask[order[:pos]] = True
+        for size in (4096,):
+            big = np.zeros((n, size, 2))
+            big[bad] = sample_patrol_zone(rng, size, spec.alpha_length_mm, spec.beta_length_mm)
+            if _assign_from_pool(geom.base_xy, big, fixed_mask, np.array([bad]), *args) < 0:
+                break
+        else:
+            raise TargetError(f"robot {int(geom.robot_ids[bad])}: no clear random target found in "
+                              f"{POOL_SIZE + 4096} draws (buffer {geom.buffer[bad]:.3f} mm is "
+                              "too crowded)")
+        fixed_mask[bad] = True
+        pos += 1
     return out
 
 

@@ -20,7 +20,8 @@ This module imports only ``models.robot``, ``models.layout``, ``models.errors`` 
 data type ``planners.trajectory``. Its segment distance is its own: the closest points
 of the two segments are found from the parameters ``(s, t)`` of the supporting lines,
 clamped to ``[0, 1]`` and re-projected (the formulation of Ericson, *Real-Time Collision
-Detection*, Sect. 5.1.9), written afresh here. The planner's kernel
+Detection*, Sect. 5.1.9), written afresh here with 2D cross products for the line
+parameter so that nearly parallel segments stay exact. The planner's kernel
 (:mod:`models.geometry2d`) instead tests for a proper crossing and then takes the
 smallest of four endpoint-to-segment distances; the two share no code.
 
@@ -126,7 +127,7 @@ __all__ = [
 
 #: Squared length (mm^2) below which a segment is treated as a point.
 _POINT_EPS2 = 1e-24
-#: Relative size of ``a e - b^2`` below which two segments are treated as parallel.
+#: |u x v| / (|u| |v|) (sine of the angle) below which two segments are parallel.
 _PARALLEL_EPS = 1e-12
 #: Upper bound on coarse intervals per pair (memory guard; refinement keeps it safe).
 _MAX_COARSE = 10_000_000
@@ -310,8 +311,13 @@ def _segment_distance(p0x, p0y, p1x, p1y, q0x, q0y, q1x, q1y):
             s = _clamp01(-c / a)
         else:
             b = ux * vx + uy * vy  # u.v
-            den = a * e - b * b
-            s = _clamp01((b * f - c * e) / den) if den > _PARALLEL_EPS * a * e else 0.0
+            # in 2D, a e - b^2 = (u x v)^2 and the unclamped line parameter is
+            # (v x w) / (u x v); the cross products keep nearly parallel segments exact
+            cr = ux * vy - uy * vx
+            if abs(cr) > _PARALLEL_EPS * math.sqrt(a * e):
+                s = _clamp01((vx * wy - vy * wx) / cr)
+            else:
+                s = 0.0
             t = (b * s + f) / e
             if t < 0.0:
                 t = 0.0
@@ -353,10 +359,10 @@ def segment_distance_np(p0, p1, q0, q1) -> np.ndarray:
     q_pt = e <= _POINT_EPS2
     a_safe = np.where(p_pt, 1.0, a)
     e_safe = np.where(q_pt, 1.0, e)
-    den = a * e - b * b
-    general = den > _PARALLEL_EPS * a * e
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(general, np.clip((b * f - c * e) / np.where(general, den, 1.0), 0.0, 1.0), 0.0)
+    cr = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+    vxw = v[..., 0] * w[..., 1] - v[..., 1] * w[..., 0]
+    general = np.abs(cr) > _PARALLEL_EPS * np.sqrt(a * e)
+    s = np.where(general, np.clip(vxw / np.where(general, cr, 1.0), 0.0, 1.0), 0.0)
     t = (b * s + f) / e_safe
     s = np.where(t < 0.0, np.clip(-c / a_safe, 0.0, 1.0),
                  np.where(t > 1.0, np.clip((b - c) / a_safe, 0.0, 1.0), s))

@@ -103,7 +103,10 @@ def test_two_brief_overlaps_in_one_coarse_interval_stay_separate():
     grid = coarse_grid(traj, SPEC, BUF, 0, 1, resolution_s=RES)
     assert np.diff(grid).min() > 0.0075          # both swings inside one coarse interval
     report = check_trajectory(traj, SPEC, pair_layout(), BUF, resolution_s=RES)
-    assert [round(c.t_min, 3) for c in report.collisions] == [0.1025, 0.1075]
+    assert len(report.collisions) == 2
+    for c, peak in zip(report.collisions, (0.1025, 0.1075)):
+        assert c.t_start < peak < c.t_end and c.t_end - c.t_start < 3e-4
+        assert abs(c.t_min - peak) < 1.5e-4
 
 
 # -- a near miss --------------------------------------------------------------------
@@ -206,6 +209,8 @@ SPECIAL = [
     ((0, 0), (10, 0), (13, 4), (13, 4), 5.0),              # segment vs point
     ((1, 1), (1, 1), (4, 5), (4, 5), 5.0),                 # point vs point
     ((0, 0), (10, 0), (0, 1e-9), (10, 1e-7), 1e-9),        # nearly parallel
+    ((0, 0), (10, 0), (-5, -1e-9), (5, 1e-9), 0.0),        # nearly parallel, crossing
+    ((0, 0), (10, 0), (11, 1e-7), (21, 2e-7), 1.0),        # nearly collinear, disjoint
 ]
 
 
