@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.array import ArrayGeometry
-from models.errors import PlanningError, SpecError, UnknownRobotError
+from models.errors import SpecError, TargetError, UnknownRobotError
 from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
 from planners.stepwise import ANGLE_EPS, max_displacement, run_stepwise
 from planners.targets import check_targets, random_targets
@@ -132,6 +132,24 @@ def deadlocked_groups(geom: ArrayGeometry, stuck: np.ndarray) -> list[np.ndarray
     return [idx[labels == c] for c in range(n_comp)]
 
 
+def _replace_one(geom: ArrayGeometry, rng: np.random.Generator, targets: np.ndarray,
+                 group: np.ndarray, margin_mm: float) -> np.ndarray:
+    """New random target for one robot of a deadlocked group (Sayres 2021 Sect. 5.2).
+
+    Members are tried in random order; one whose neighbourhood leaves no clear spot is
+    skipped. Returns the updated (n, 2) targets (unchanged if no member fits).
+    """
+    for i in rng.permutation(group):
+        keep = np.ones(geom.n_robots, dtype=bool)
+        keep[i] = False
+        try:
+            return random_targets(geom, rng, fixed=keep, initial=targets, margin_mm=margin_mm,
+                                  robots=np.array([i]), attempts=1)
+        except TargetError:
+            continue
+    return targets
+
+
 def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: PlannerSettings,
                          rng: np.random.Generator, *, offline: dict[int, tuple[float, float]] | None = None,
                          resolve: bool = True, progress=None) -> Plan:
@@ -193,12 +211,10 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         if not stuck.any() or not resolve or rounds >= settings.max_rounds:
             break
         rounds += 1
-        groups = deadlocked_groups(geom, stuck)
-        chosen = np.array([rng.choice(g) for g in groups], dtype=np.int64)
-        replaced[chosen] = True
-        keep = np.ones(n, dtype=bool)
-        keep[chosen] = False
-        targets = random_targets(geom, rng, fixed=keep, initial=targets, margin_mm=md, robots=chosen)
+        for group in deadlocked_groups(geom, stuck):
+            targets = _replace_one(geom, rng, targets, group, md)
+            replaced |= targets[:, 0] != original[:, 0]
+            replaced |= targets[:, 1] != original[:, 1]
 
     start = targets if settings.direction == "reverse" else fold
     ptr, steps, angles = build_paths(n, run.ev_robot, run.ev_step, run.ev_angles, start,
