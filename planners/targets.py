@@ -153,7 +153,7 @@ def check_targets(geom, targets: np.ndarray, movable: np.ndarray | None = None) 
         bad = np.flatnonzero(~np.isfinite(v) | (v < lo) | (v > hi))
         if bad.size:
             k = int(bad[0])
-            raise TargetError(f"robot {int(geom.robot_ids[k])}: field '{axis}' = {v[k]!r}; "
+            raise TargetError(f"robot {int(geom.robot_ids[k])}: field '{axis}' = {float(v[k])!r}; "
                               f"allowed: [{lo}, {hi}] deg")
     d = geom.pair_clearance(targets)
     hit = np.flatnonzero(d <= 0.0)

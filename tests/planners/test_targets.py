@@ -1,0 +1,62 @@
+"""Random target assignment (Sayres 2021 Sect. 4.1) and target checks."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from models.array import ArrayGeometry
+from models.errors import TargetError
+from models.kinematics import forward
+from models.layout import Layout
+from models.robot import load_spec
+from planners.targets import check_targets, random_targets
+from tests.planners.conftest import make_geom
+
+
+@pytest.mark.parametrize("buffer_mm", [1.5, 2.5, 3.5])
+def test_random_targets_are_clear_right_armed_and_seeded(buffer_mm):
+    geom = make_geom(91, buffer_mm)
+    a = random_targets(geom, np.random.default_rng(11), margin_mm=0.2)
+    b = random_targets(geom, np.random.default_rng(11), margin_mm=0.2)
+    np.testing.assert_array_equal(a, b)
+    assert np.all((a[:, 1] >= 0) & (a[:, 1] <= 180))
+    assert geom.pair_clearance(a).min() > 0.2
+    check_targets(geom, a)
+    fiber, _ = forward(geom.base_xy, a, 7.4, 15.0)
+    r = np.hypot(*(fiber - geom.base_xy).T)
+    assert r.min() >= 7.6 - 1e-6 and r.max() <= 22.4 + 1e-6
+
+
+def test_random_targets_avoid_fiducials():
+    geom = ArrayGeometry(load_spec("sdss-v"), Layout.sdss_v_fps(), 2.5)
+    t = random_targets(geom, np.random.default_rng(1))
+    assert geom.fiducial_clearance(t).min() > 0.0
+
+
+def test_redrawing_one_robot_keeps_the_others():
+    geom = make_geom(37, 2.0)
+    a = random_targets(geom, np.random.default_rng(0))
+    keep = np.ones(geom.n_robots, dtype=bool)
+    keep[5] = False
+    b = random_targets(geom, np.random.default_rng(1), fixed=keep, initial=a, robots=np.array([5]))
+    np.testing.assert_array_equal(b[keep], a[keep])
+    assert not np.array_equal(b[5], a[5])
+    check_targets(geom, b)
+
+
+def test_impossible_buffer_is_reported():
+    geom = make_geom(37, 10.0)
+    with pytest.raises(TargetError, match="no clear random target"):
+        random_targets(geom, np.random.default_rng(0), attempts=2)
+
+
+def test_target_checks_name_robot_field_and_range():
+    geom = make_geom(7, 2.0)
+    good = np.tile([10.0, 170.0], (7, 1))
+    check_targets(geom, good)
+    bad = good.copy()
+    bad[2, 0] = 400.0
+    with pytest.raises(TargetError, match=r"robot 2: field 'alpha' = 400.0; allowed: \[0.0, 360.0\]"):
+        check_targets(geom, bad)
+    with pytest.raises(TargetError, match="shape"):
+        check_targets(geom, good[:3])
