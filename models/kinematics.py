@@ -84,6 +84,9 @@ def inverse(base_xy: np.ndarray, fiber_xy: np.ndarray, l_alpha: float, l_beta: f
     """
     base_xy = np.asarray(base_xy, dtype=np.float64)
     fiber_xy = np.asarray(fiber_xy, dtype=np.float64)
+    if base_xy.ndim != 2 or base_xy.shape[1] != 2 or fiber_xy.shape != base_xy.shape:
+        raise TargetError(f"inverse kinematics: base shape {base_xy.shape} and target shape "
+                          f"{fiber_xy.shape}; allowed: both (n, 2) in mm")
     out = np.empty_like(base_xy)
     _inverse_kernel(np.ascontiguousarray(fiber_xy - base_xy), l_alpha, l_beta, right_arm, out)
     bad = np.flatnonzero(~np.isfinite(out[:, 0]))

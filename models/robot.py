@@ -210,23 +210,35 @@ def _read_toml(name_or_path: str | Path, seen: tuple[str, ...] = ()) -> tuple[di
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{source}: malformed TOML: {exc}") from None
+        raise SpecError(f"{source}: malformed TOML ({exc}); allowed: a TOML file with [robot] "
+                        "and [collision] tables") from None
     base_name = data.get("extends")
     if base_name is not None:
         if not isinstance(base_name, str):
             raise SpecError(f"{source}: field 'extends' = {base_name!r}; allowed: a preset name or path")
-        if base_name in seen:
-            raise SpecError(f"{source}: field 'extends' forms a cycle through {base_name!r}")
+        if _looks_like_path(base_name) and not Path(base_name).is_absolute() \
+                and _looks_like_path(name_or_path):
+            base_name = str(Path(name_or_path).parent / base_name)  # relative to this file
+        if base_name in seen or str(name_or_path) == base_name:
+            raise SpecError(f"{source}: field 'extends' forms a cycle through {base_name!r}; "
+                            "allowed: a chain of presets that ends")
         base, _ = _read_toml(base_name, seen + (str(name_or_path),))
         data = _merge(base, {k: v for k, v in data.items() if k != "extends"})
     return data, source
 
 
+def _looks_like_path(name_or_path: str | Path) -> bool:
+    """A path (ends in .toml or names a file) rather than a built-in preset name."""
+    path = Path(name_or_path)
+    return path.suffix == ".toml" or path.is_file()
+
+
 def _toml_text(name_or_path: str | Path) -> tuple[str, str]:
     path = Path(name_or_path)
-    if path.suffix == ".toml" or path.exists():
+    if _looks_like_path(path):
         if not path.is_file():
-            raise SpecError(f"{path}: robot spec file not found")
+            raise SpecError(f"{path}: robot spec file not found; allowed: an existing .toml file "
+                            f"or a preset ({', '.join(list_presets())})")
         return path.read_text(encoding="utf-8"), str(path)
     preset = resources.files("models") / "presets" / f"{name_or_path}.toml"
     if not preset.is_file():
@@ -255,7 +267,8 @@ def spec_from_dict(data: dict, source: str = "<memory>") -> RobotSpec:
     for table, fields in (("robot", _ROBOT_FIELDS), ("collision", _COLLISION_FIELDS)):
         section = data.get(table)
         if not isinstance(section, dict):
-            raise SpecError(f"{source}: missing table [{table}]")
+            raise SpecError(f"{source}: missing table [{table}]; allowed: a preset with [robot] "
+                            "and [collision] tables")
         extra = set(section) - set(fields)
         if extra:
             raise SpecError(f"{source}: unknown field(s) {sorted(extra)} in [{table}]; allowed: "
@@ -264,7 +277,8 @@ def spec_from_dict(data: dict, source: str = "<memory>") -> RobotSpec:
             if key not in section:
                 if key in _OPTIONAL:
                     continue
-                raise SpecError(f"{source}: missing field '{key}' in [{table}]")
+                raise SpecError(f"{source}: missing field '{key}' in [{table}]; allowed: every "
+                                f"field of [{table}] set (see models/presets/sdss-v.toml)")
             value = section[key]
             if isinstance(value, list):
                 value = tuple(value)

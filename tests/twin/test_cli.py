@@ -1,0 +1,124 @@
+"""`rfp-twin plan` end to end, as a user runs it (subprocess, exit codes, files)."""
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from models.layout import Layout
+from models.robot import load_spec
+from planners.trajectory import Trajectory
+
+
+def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "twin.cli", *args], capture_output=True,
+                          text=True, cwd=cwd, timeout=300)
+
+
+def test_plan_writes_a_complete_checked_run(tmp_path):
+    out = tmp_path / "run"
+    r = run("plan", "--layout", "hex:37", "--buffer", "2.0", "--step", "0.2", "--seed", "4",
+            "--offline", "3", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "efficiency" in r.stdout and "2D check" in r.stdout
+    names = {p.name for p in out.iterdir()}
+    assert names == {"trajectories.json", "trajectories_to_fold.json", "layout.csv", "targets.csv",
+                     "robot.toml", "summary.json", "check2d.json"}
+    summary = json.loads((out / "summary.json").read_text())
+    for key in ("buffer_mm", "step_deg", "algorithm", "greed", "phobia", "seed", "direction",
+                "offline", "metrics", "check2d"):
+        assert key in summary
+    assert summary["check2d"]["ok"] and summary["check2d"]["n_collisions"] == 0
+    for key in ("efficiency", "convergence", "tau_pg_s", "tau_sr_s", "fold_time_s"):
+        assert key in summary["metrics"]
+    assert summary["offline"] == [3]
+    traj = Trajectory.from_json(out / "trajectories.json")
+    assert traj.n_robots == 37
+    fold = np.array(load_spec("sdss-v").fold_deg)
+    moving = traj.robot_ids != 3
+    np.testing.assert_allclose(traj.start()[moving], np.tile(fold, (36, 1)))
+    with open(out / "targets.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 37
+    np.testing.assert_allclose(traj.end(), [[float(r["alpha_deg"]), float(r["beta_deg"])] for r in rows],
+                               atol=1e-5)
+    assert {r["status"] for r in rows if r["robot_id"] == "3"} == {"offline"}
+    assert Layout.from_csv(out / "layout.csv").n_robots == 37
+    assert load_spec(out / "robot.toml").buffer_mm == 2.0
+    back = Trajectory.from_json(out / "trajectories_to_fold.json")
+    np.testing.assert_allclose(back.end()[moving], np.tile(fold, (36, 1)))
+
+
+def test_targets_csv_by_fiber_position(tmp_path):
+    lay = Layout.hex_grid(1, 22.4)
+    path = tmp_path / "targets.csv"
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["robot_id", "x_mm", "y_mm"])
+        for rid, (x, y) in zip(lay.robot_ids, lay.robot_xy):
+            w.writerow([rid, x + 12.0, y + 5.0])
+    r = run("plan", "--layout", "hex:1", "--targets", str(path), "--out", str(tmp_path / "o"))
+    assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.parametrize("args,words", [
+    (["--preset", "nope"], "unknown preset 'nope'"),
+    (["--layout", "hex:40"], "hex"),
+    (["--buffer", "-1"], "buffer_mm"),
+    (["--algorithm", "astar"], "astar"),
+    (["--greed", "2", "--algorithm", "markov"], "greed"),
+    (["--offline", "999"], "999"),
+])
+def test_bad_input_is_one_line_nonzero_and_writes_nothing(tmp_path, args, words):
+    out = tmp_path / "o"
+    r = run("plan", "--layout", "hex:7", *args, "--out", str(out)) if "--layout" not in args else \
+        run("plan", *args, "--out", str(out))
+    assert r.returncode == 2, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:") and words in lines[0], r.stderr
+    assert not out.exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".o.")]
+
+
+def test_bad_layout_and_targets_files(tmp_path):
+    bad = tmp_path / "lay.csv"
+    bad.write_text("id,x_mm,y_mm,kind\n1,0,0,robot\n1,30,0,robot\n")
+    r = run("plan", "--layout", str(bad), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "duplicate" in r.stderr.lower()
+    tg = tmp_path / "t.csv"
+    tg.write_text("robot_id,alpha_deg,beta_deg\n" + "".join(f"{i},10,170\n" for i in range(7)) + "77,1,1\n")
+    r = run("plan", "--layout", "hex:1", "--targets", str(tg), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "unknown robot id 77" in r.stderr
+    tg.write_text("robot_id,alpha_deg,beta_deg\n" + "".join(f"{i},10,170\n" for i in range(6)))
+    r = run("plan", "--layout", "hex:1", "--targets", str(tg), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "no target row" in r.stderr
+    tg.write_text("robot_id,x_mm,y_mm\n" + "".join(f"{i},0,0\n" for i in range(7)))
+    r = run("plan", "--layout", "hex:1", "--targets", str(tg), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "unreachable" in r.stderr and "allowed" in r.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_existing_output_is_kept_unless_forced(tmp_path):
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "mine.txt").write_text("keep me")
+    r = run("plan", "--layout", "hex:1", "--out", str(out))
+    assert r.returncode == 2 and "exists" in r.stderr
+    assert (out / "mine.txt").read_text() == "keep me"
+    r = run("plan", "--layout", "hex:1", "--out", str(out), "--force")
+    assert r.returncode == 0 and not (out / "mine.txt").exists()
+
+
+def test_unresolved_deadlock_exits_nonzero_but_keeps_the_evidence(tmp_path):
+    out = tmp_path / "o"
+    r = run("plan", "--layout", "hex:2", "--buffer", "3.5", "--step", "0.5", "--direction", "forward",
+            "--no-resolve", "--seed", "0", "--out", str(out))
+    assert r.returncode == 3, r.stderr
+    assert "deadlocked" in r.stderr
+    with open(out / "targets.csv") as fh:
+        assert "deadlocked" in {row["status"] for row in csv.DictReader(fh)}
