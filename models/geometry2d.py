@@ -46,6 +46,62 @@ def segment_distance(ax, ay, bx, by, cx, cy, dx, dy):
 
 
 @njit(cache=True, inline="always")
+def segment_closest(ax, ay, bx, by, cx, cy, dx, dy):
+    """Closest points of non-crossing segments AB and CD.
+
+    Returns (distance, s, px, py, qx, qy): P = A + s (B - A) on AB and Q on CD, mm.
+    For crossing segments the distance is 0 and P = Q is an endpoint-nearest point.
+    """
+    best = 1e300
+    s_best = 0.0
+    px = ax
+    py = ay
+    qx = cx
+    qy = cy
+    # endpoints of AB against CD
+    for k in range(2):
+        ex = ax if k == 0 else bx
+        ey = ay if k == 0 else by
+        ux = dx - cx
+        uy = dy - cy
+        den = ux * ux + uy * uy
+        t = 0.0
+        if den > 0.0:
+            t = min(1.0, max(0.0, ((ex - cx) * ux + (ey - cy) * uy) / den))
+        fx = cx + t * ux
+        fy = cy + t * uy
+        d = math.sqrt((ex - fx) ** 2 + (ey - fy) ** 2)
+        if d < best:
+            best = d
+            s_best = float(k)
+            px = ex
+            py = ey
+            qx = fx
+            qy = fy
+    # endpoints of CD against AB
+    for k in range(2):
+        ex = cx if k == 0 else dx
+        ey = cy if k == 0 else dy
+        ux = bx - ax
+        uy = by - ay
+        den = ux * ux + uy * uy
+        t = 0.0
+        if den > 0.0:
+            t = min(1.0, max(0.0, ((ex - ax) * ux + (ey - ay) * uy) / den))
+        fx = ax + t * ux
+        fy = ay + t * uy
+        d = math.sqrt((ex - fx) ** 2 + (ey - fy) ** 2)
+        if d < best:
+            best = d
+            s_best = t
+            px = fx
+            py = fy
+            qx = ex
+            qy = ey
+    return best, s_best, px, py, qx, qy
+
+
+@njit(cache=True, inline="always")
 def point_segment_distance(px, py, ax, ay, bx, by):
     """Distance from point P to segment AB, mm."""
     ux = bx - ax

@@ -40,7 +40,7 @@ import math
 import numpy as np
 from numba import njit
 
-from models.geometry2d import point_segment_distance, segment_distance
+from models.geometry2d import point_segment_distance, segment_closest, segment_distance
 
 DEG = math.pi / 180.0
 #: Angles closer than this are the same angle (deg).
@@ -291,23 +291,44 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                 break
         return hit
 
-    def energy(i, x0, y0, x1, y1, rho_i, step):
-        """Eq. 9: sum of 1/D^2 over the neighbours of a candidate segment of robot i, mm^-2.
+    def energy_gradient(i, s1, step):
+        """Eq. 9 energy E = sum 1/D^2 of robot i now, and dE/dalpha, dE/dbeta (per deg).
 
-        Neighbours whose disk bound puts them beyond ENERGY_CUTOFF_MM are left out: their
-        term is < 1/cutoff^2 and, more to the point, changes between the 9 candidates by
-        < 2 MD / cutoff^3, too little to reorder candidates that near neighbours separate.
+        The nine candidates differ from the current state by at most one step, so the MC
+        planner ranks them by E + grad . (dalpha, dbeta): one pass over the neighbours
+        instead of nine. By the envelope theorem dD/dtheta is the motion of robot i's
+        closest point along the unit vector between the closest points. Neighbours whose
+        disk bound is beyond ENERGY_CUTOFF_MM are left out: their term changes between
+        candidates by < 2 MD / cutoff^3, too little to reorder what near ones separate.
         """
         e = 0.0
+        ga = 0.0
+        gb = 0.0
         if step < free_until[i]:
-            return e
+            return e, ga, gb
+        ca_ = trig[i, 0]
+        sa_ = trig[i, 1]
+        cab = trig[i, 2]
+        sab = trig[i, 3]
+        seg_len = s1 - s0
         for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
             j = nbr_idx[k]
-            if nbr_dist[k] - rho_i - rho[j] > ENERGY_CUTOFF_MM:
+            if nbr_dist[k] - rho[i] - rho[j] > ENERGY_CUTOFF_MM:
                 continue
-            d = segment_distance(x0, y0, x1, y1, seg[j, 0], seg[j, 1], seg[j, 2], seg[j, 3])
-            e += 1.0 / max(d * d, 1e-12)
-        return e
+            d, t, px, py, qx, qy = segment_closest(seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3],
+                                                   seg[j, 0], seg[j, 1], seg[j, 2], seg[j, 3])
+            d = max(d, 1e-6)
+            e += 1.0 / (d * d)
+            nx = (px - qx) / d
+            ny = (py - qy) / d
+            r = s0 + t * seg_len          # closest point: r mm along the beta arm
+            # dP/dalpha = l_alpha u'(a) + r u'(a+b);  dP/dbeta = r u'(a+b);  u' = (-sin, cos)
+            dpa = nx * (-l_alpha * sa_ - r * sab) + ny * (l_alpha * ca_ + r * cab)
+            dpb = nx * (-r * sab) + ny * (r * cab)
+            w = -2.0 / (d * d * d) * DEG  # dE/dD, per degree
+            ga += w * dpa
+            gb += w * dpb
+        return e, ga, gb
 
     def commit(i, q, s1):
         """Copy candidate q's state into robot i's state."""
@@ -417,20 +438,25 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                         break
             elif not greedy:
                 # Markov chain: random order; energy or cost; accept with prob. greed
+                # a uniform random order of the 9 candidates from one draw (Lehmer code)
+                code = np.random.randint(0, 362880)
+                for p in range(9):
+                    order[p] = p
                 for p in range(8, 0, -1):
-                    r = np.random.randint(0, p + 1)
+                    r = code % (p + 1)
+                    code //= p + 1
                     t = order[p]
                     order[p] = order[r]
                     order[r] = t
                 use_energy = np.random.random() < phobia
+                if use_energy:
+                    e0, ga, gb = energy_gradient(i, s1, step)
                 best_score = 1e300
                 for p in range(9):
                     q = order[p]
                     is_stay = cand[q, 0] == ca and cand[q, 1] == cb
                     if use_energy:
-                        try_cand(q, i, ca, cb, bx, by, s1, md, step, False)
-                        score = energy(i, cand[q, 8], cand[q, 9], cand[q, 10], cand[q, 11],
-                                       cand[q, 12], step)
+                        score = e0 + ga * (cand[q, 0] - ca) + gb * (cand[q, 1] - cb)
                     else:
                         score = cost[q]
                     take = False
