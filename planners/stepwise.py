@@ -161,7 +161,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
     asleep_at = np.full(n, -1, dtype=np.int64)  # move counter when the robot fell asleep
     moved_at = np.zeros(n, dtype=np.int64)      # move counter of the robot's last move
     free_until = np.zeros(n, dtype=np.int64)    # step until which robot i needs no checks
-    free_ref = 0.0 if greedy else ENERGY_CUTOFF_MM
+    efree_until = np.zeros(n, dtype=np.int64)   # step until which robot i's energy is 0
     s1_max = 0.0
     for i in range(n):
         s1_max = max(s1_max, seg_end[i], seg_start)
@@ -245,14 +245,16 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         # disk bound |b_i - b_j| - rho_i - rho_j shrinks by at most free_step per step
         # (each reach changes by at most seg_end * step), so it stays clear for
         # free_margin / free_step steps.
-        free_margin = 1e300
+        free_margin = 1e300     # the step rule cannot fail before this clears
+        efree_margin = 1e300    # the energy has no term before this clears
         for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
             j = nbr_idx[k]
             th = bi + buffer[j] + margin
             lb = nbr_dist[k] - rho_i - rho[j]
-            fm = lb - max(th, free_ref)
-            if fm < free_margin:
-                free_margin = fm
+            if lb - th < free_margin:
+                free_margin = lb - th
+            if lb - ENERGY_CUTOFF_MM < efree_margin:
+                efree_margin = lb - ENERGY_CUTOFF_MM
             if lb > th:
                 continue
             d = segment_distance(x0, y0, x1, y1, seg[j, 0], seg[j, 1], seg[j, 2], seg[j, 3]) - th
@@ -264,7 +266,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
             th = bi + fid_buffer + margin
             for k in range(fid_ptr[i], fid_ptr[i + 1]):
                 f = fid_idx[k]
-                fm = math.hypot(fid_xy[f, 0] - bx, fid_xy[f, 1] - by) - rho_i - max(th, free_ref)
+                fm = math.hypot(fid_xy[f, 0] - bx, fid_xy[f, 1] - by) - rho_i - th
                 if fm < free_margin:
                     free_margin = fm
                 d = point_segment_distance(fid_xy[f, 0], fid_xy[f, 1], x0, y0, x1, y1) - th
@@ -272,8 +274,11 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                     best = d
                     if d <= 0.0:
                         break
-        if best > 0.0 and free_margin > 0.0 and margin == md:
-            free_until[i] = step + int(free_margin / free_step) - 2
+        if best > 0.0 and margin == md:
+            if free_margin > 0.0:
+                free_until[i] = step + int(free_margin / free_step) - 2
+            if efree_margin > 0.0:
+                efree_until[i] = step + int(efree_margin / free_step) - 2
         return q if best > 0.0 else -1
 
 
@@ -304,7 +309,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         e = 0.0
         ga = 0.0
         gb = 0.0
-        if step < free_until[i]:
+        if step < efree_until[i]:
             return e, ga, gb
         ca_ = trig[i, 0]
         sa_ = trig[i, 1]
