@@ -46,58 +46,37 @@ def segment_distance(ax, ay, bx, by, cx, cy, dx, dy):
 
 
 @njit(cache=True, inline="always")
+def _project(ex, ey, ax, ay, bx, by):
+    """Closest point F = A + t (B - A) of segment AB to point E: (distance, t, fx, fy)."""
+    ux = bx - ax
+    uy = by - ay
+    den = ux * ux + uy * uy
+    t = 0.0
+    if den > 0.0:
+        t = min(1.0, max(0.0, ((ex - ax) * ux + (ey - ay) * uy) / den))
+    fx = ax + t * ux
+    fy = ay + t * uy
+    return math.sqrt((ex - fx) ** 2 + (ey - fy) ** 2), t, fx, fy
+
+
+@njit(cache=True, inline="always")
 def segment_closest(ax, ay, bx, by, cx, cy, dx, dy):
     """Closest points of non-crossing segments AB and CD.
 
     Returns (distance, s, px, py, qx, qy): P = A + s (B - A) on AB and Q on CD, mm.
     For crossing segments the distance is 0 and P = Q is an endpoint-nearest point.
     """
-    best = 1e300
-    s_best = 0.0
-    px = ax
-    py = ay
-    qx = cx
-    qy = cy
-    # endpoints of AB against CD
-    for k in range(2):
-        ex = ax if k == 0 else bx
-        ey = ay if k == 0 else by
-        ux = dx - cx
-        uy = dy - cy
-        den = ux * ux + uy * uy
-        t = 0.0
-        if den > 0.0:
-            t = min(1.0, max(0.0, ((ex - cx) * ux + (ey - cy) * uy) / den))
-        fx = cx + t * ux
-        fy = cy + t * uy
-        d = math.sqrt((ex - fx) ** 2 + (ey - fy) ** 2)
-        if d < best:
-            best = d
-            s_best = float(k)
-            px = ex
-            py = ey
-            qx = fx
-            qy = fy
-    # endpoints of CD against AB
-    for k in range(2):
-        ex = cx if k == 0 else dx
-        ey = cy if k == 0 else dy
-        ux = bx - ax
-        uy = by - ay
-        den = ux * ux + uy * uy
-        t = 0.0
-        if den > 0.0:
-            t = min(1.0, max(0.0, ((ex - ax) * ux + (ey - ay) * uy) / den))
-        fx = ax + t * ux
-        fy = ay + t * uy
-        d = math.sqrt((ex - fx) ** 2 + (ey - fy) ** 2)
-        if d < best:
-            best = d
-            s_best = t
-            px = fx
-            py = fy
-            qx = ex
-            qy = ey
+    best, _, qx, qy = _project(ax, ay, cx, cy, dx, dy)
+    s_best, px, py = 0.0, ax, ay
+    d, _, fx, fy = _project(bx, by, cx, cy, dx, dy)
+    if d < best:
+        best, s_best, px, py, qx, qy = d, 1.0, bx, by, fx, fy
+    d, t, fx, fy = _project(cx, cy, ax, ay, bx, by)
+    if d < best:
+        best, s_best, px, py, qx, qy = d, t, fx, fy, cx, cy
+    d, t, fx, fy = _project(dx, dy, ax, ay, bx, by)
+    if d < best:
+        best, s_best, px, py, qx, qy = d, t, fx, fy, dx, dy
     return best, s_best, px, py, qx, qy
 
 
