@@ -46,6 +46,37 @@ def segment_distance(ax, ay, bx, by, cx, cy, dx, dy):
 
 
 @njit(cache=True, inline="always")
+def _point_segment_sq(px, py, ax, ay, bx, by):
+    """Squared distance from point P to segment AB, mm^2."""
+    ux = bx - ax
+    uy = by - ay
+    den = ux * ux + uy * uy
+    t = 0.0
+    if den > 0.0:
+        t = min(1.0, max(0.0, ((px - ax) * ux + (py - ay) * uy) / den))
+    ex = ax + t * ux - px
+    ey = ay + t * uy - py
+    return ex * ex + ey * ey
+
+
+@njit(cache=True, inline="always")
+def segments_within(ax, ay, bx, by, cx, cy, dx, dy, r):
+    """True when segments AB and CD are at most r apart (no square roots)."""
+    d1 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
+    d2 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
+    d3 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    d4 = (bx - ax) * (dy - ay) - (by - ay) * (dx - ax)
+    if ((d1 > 0.0 and d2 < 0.0) or (d1 < 0.0 and d2 > 0.0)) and \
+            ((d3 > 0.0 and d4 < 0.0) or (d3 < 0.0 and d4 > 0.0)):
+        return True
+    r2 = r * r
+    return (_point_segment_sq(ax, ay, cx, cy, dx, dy) <= r2
+            or _point_segment_sq(bx, by, cx, cy, dx, dy) <= r2
+            or _point_segment_sq(cx, cy, ax, ay, bx, by) <= r2
+            or _point_segment_sq(dx, dy, ax, ay, bx, by) <= r2)
+
+
+@njit(cache=True, inline="always")
 def _project(ex, ey, ax, ay, bx, by):
     """Closest point F = A + t (B - A) of segment AB to point E: (distance, t, fx, fy)."""
     ux = bx - ax

@@ -40,7 +40,8 @@ import math
 import numpy as np
 from numba import njit
 
-from models.geometry2d import point_segment_distance, segment_closest, segment_distance
+from models.geometry2d import (point_segment_distance, segment_closest, segment_distance,
+                               segments_within)
 
 DEG = math.pi / 180.0
 #: Angles closer than this are the same angle (deg).
@@ -240,13 +241,17 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         if step < free_until[i]:
             return q
         bi = buffer[i]
-        best = 1e300
-        # free_margin: smallest disk bound beyond what matters, over all neighbours. The
-        # disk bound |b_i - b_j| - rho_i - rho_j shrinks by at most free_step per step
-        # (each reach changes by at most seg_end * step), so it stays clear for
-        # free_margin / free_step steps.
+        hit = False
+        # Two cheap bounds before the exact test: the base disks (|b_i - b_j| - rho_i -
+        # rho_j) and the segment-midpoint disks (|m_i - m_j| - half lengths).
+        # free_margin: the smallest base-disk bound beyond what matters. That bound
+        # shrinks by at most free_step per step (each reach changes by at most
+        # seg_end * step), so no check is needed for free_margin / free_step steps.
         free_margin = 1e300     # the step rule cannot fail before this clears
         efree_margin = 1e300    # the energy has no term before this clears
+        mx = 0.5 * (x0 + x1)
+        my = 0.5 * (y0 + y1)
+        hi = 0.5 * (s1 - s0)
         for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
             j = nbr_idx[k]
             th = bi + buffer[j] + margin
@@ -257,29 +262,30 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                 efree_margin = lb - ENERGY_CUTOFF_MM
             if lb > th:
                 continue
-            d = segment_distance(x0, y0, x1, y1, seg[j, 0], seg[j, 1], seg[j, 2], seg[j, 3]) - th
-            if d < best:
-                best = d
-                if d <= 0.0:
-                    break
-        if best > 0.0:
+            ux = 0.5 * (seg[j, 0] + seg[j, 2]) - mx
+            uy = 0.5 * (seg[j, 1] + seg[j, 3]) - my
+            reach = th + hi + 0.5 * (seg_end[j] - s0)
+            if ux * ux + uy * uy > reach * reach:
+                continue
+            if segments_within(x0, y0, x1, y1, seg[j, 0], seg[j, 1], seg[j, 2], seg[j, 3], th):
+                hit = True
+                break
+        if not hit:
             th = bi + fid_buffer + margin
             for k in range(fid_ptr[i], fid_ptr[i + 1]):
                 f = fid_idx[k]
                 fm = math.hypot(fid_xy[f, 0] - bx, fid_xy[f, 1] - by) - rho_i - th
                 if fm < free_margin:
                     free_margin = fm
-                d = point_segment_distance(fid_xy[f, 0], fid_xy[f, 1], x0, y0, x1, y1) - th
-                if d < best:
-                    best = d
-                    if d <= 0.0:
-                        break
-        if best > 0.0 and margin == md:
+                if point_segment_distance(fid_xy[f, 0], fid_xy[f, 1], x0, y0, x1, y1) <= th:
+                    hit = True
+                    break
+        if not hit:
             if free_margin > 0.0:
                 free_until[i] = step + int(free_margin / free_step) - 2
             if efree_margin > 0.0:
                 efree_until[i] = step + int(efree_margin / free_step) - 2
-        return q if best > 0.0 else -1
+        return -1 if hit else q
 
 
     def encroached(i, margin):
