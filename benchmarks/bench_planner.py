@@ -109,6 +109,24 @@ def machine_info() -> dict:
             "date": time.strftime("%Y-%m-%d %H:%M:%S %Z")}
 
 
+def source_fingerprint() -> tuple[str, str]:
+    """Short sha256 of the planner and model sources (no git here), and their newest mtime."""
+    import hashlib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    files = sorted(p for d in ("models", "planners") for p in (root / d).rglob("*")
+                   if p.suffix in (".py", ".toml", ".csv") and "__pycache__" not in p.parts)
+    h = hashlib.sha256()
+    newest = 0.0
+    for f in files:
+        h.update(str(f.relative_to(root)).encode())
+        h.update(f.read_bytes())
+        newest = max(newest, f.stat().st_mtime)
+    stamp = time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime(newest)) + " UTC" if files else "n/a"
+    return h.hexdigest()[:12], stamp
+
+
 def command_line() -> str:
     exe = os.path.relpath(sys.executable) if sys.executable.startswith(os.getcwd()) else sys.executable
     return " ".join(shlex.quote(a) for a in [exe, *sys.argv])
@@ -432,8 +450,8 @@ def run_kaiju_if_installed(targets: dict, buffers: list[float], step: float = 0.
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--trials", type=int, default=6,
-                    help="trials per row/cell (default 6: the whole run takes ~3-5 min on 2 cores)")
+    ap.add_argument("--trials", type=int, default=10,
+                    help="trials per row/cell (default 10: the whole run takes ~2.5 min on 2 cores)")
     ap.add_argument("--kaiju-trials", type=int, default=None,
                     help="trials per cell of the kaiju section (default: --trials)")
     ap.add_argument("--only", choices=("table3", "kaiju", "all"), default="all")
@@ -448,15 +466,18 @@ def main(argv=None) -> int:
 
     info = machine_info()
     cmd = command_line()
+    fp_start, fp_time = source_fingerprint()
     console.rule("rfp-twin planner benchmark")
     console.print(f"command: {cmd}")
     console.print(f"machine: nproc {info['nproc']}, {info['cpu']}; python {info['python']}, "
                   f"numpy {info['numpy']}, numba {info['numba']}; load average at start "
                   f"{info['load']}; {info['date']}")
+    console.print(f"sources: models/ + planners/ sha256 {fp_start} (newest file {fp_time})")
     md = ["<!-- bench:begin -->", f"Command: `{cmd}`", "",
           f"Machine: nproc {info['nproc']}, {info['cpu']}; Python {info['python']}, "
           f"numpy {info['numpy']}, numba {info['numba']}; load average at start {info['load']}; "
-          f"{info['date']}.", ""]
+          f"{info['date']}.", "",
+          f"Sources: models/ + planners/ sha256 `{fp_start}` (newest file {fp_time}).", ""]
 
     t_all = time.perf_counter()
     err.print("warming up the numba kernels (not timed) ...")
@@ -485,6 +506,13 @@ def main(argv=None) -> int:
     except OSError:
         load_end = "n/a"
     total = time.perf_counter() - t_all
+    fp_end, fp_end_time = source_fingerprint()
+    if fp_end != fp_start:
+        warn = (f"Note: models/ or planners/ changed on disk during this run ({fp_start} -> "
+                f"{fp_end}, at {fp_end_time}); this process kept the modules it imported at "
+                f"start ({fp_start}), so its figures are for that version only.")
+        console.print(f"[red]{warn}[/]")
+        md += [f"**{warn}**", ""]
     md += [f"Total wall time {total:.0f} s; load average at end {load_end}.", "<!-- bench:end -->"]
     block = "\n".join(md)
     console.rule("markdown for benchmarks/RESULTS.md")

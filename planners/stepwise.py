@@ -48,6 +48,8 @@ DEG = math.pi / 180.0
 ANGLE_EPS = 1e-9
 #: MC energy (Eq. 9) counts neighbours whose capsules may be nearer than this (mm).
 ENERGY_CUTOFF_MM = 12.0
+#: Steps for which a robot's short list of near neighbours stays valid.
+NEAR_HORIZON = 32
 
 
 def max_displacement(l_alpha: float, l_beta: float, seg_end: float, step_deg: float) -> float:
@@ -161,8 +163,15 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
     home = np.zeros(n, dtype=np.bool_)
     asleep_at = np.full(n, -1, dtype=np.int64)  # move counter when the robot fell asleep
     moved_at = np.zeros(n, dtype=np.int64)      # move counter of the robot's last move
-    free_until = np.zeros(n, dtype=np.int64)    # step until which robot i needs no checks
-    efree_until = np.zeros(n, dtype=np.int64)   # step until which robot i's energy is 0
+    # short lists of the neighbours that can matter in the next NEAR_HORIZON steps
+    max_deg = 1
+    for i in range(n):
+        max_deg = max(max_deg, nbr_ptr[i + 1] - nbr_ptr[i])
+    near_k = np.empty((n, max_deg), dtype=np.int64)   # CSR entries of the near neighbours
+    near_cnt = np.zeros(n, dtype=np.int64)
+    near_until = np.zeros(n, dtype=np.int64)          # step at which the list expires
+    near_ref = 0.0 if greedy else ENERGY_CUTOFF_MM    # MC energy needs neighbours to the cutoff
+    home_until = np.zeros(n, dtype=np.int64)          # MC: parked robot needs no Eq. 10 check
     s1_max = 0.0
     for i in range(n):
         s1_max = max(s1_max, seg_end[i], seg_start)
@@ -198,8 +207,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
     def try_cand(q, i, ca, cb, bx, by, s1, margin, step, check=True):
         """Fill candidate q's state; return q if it passes the step rule, else -1.
 
-        While ``step < free_until[i]`` no neighbour or fiducial can be near enough to
-        matter (see the disk-bound argument below), so the scan is skipped.
+        Only robot i's short list of near neighbours is scanned (see ``refresh_near``).
         """
         na = cand[q, 0]
         nb = cand[q, 1]
@@ -238,29 +246,18 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         cand[q, 11] = y1
         rho_i = _reach_from_cos(l_alpha, s0, s1, cand[q, 6])
         cand[q, 12] = rho_i
-        if step < free_until[i]:
-            return q
         bi = buffer[i]
         hit = False
         # Two cheap bounds before the exact test: the base disks (|b_i - b_j| - rho_i -
         # rho_j) and the segment-midpoint disks (|m_i - m_j| - half lengths).
-        # free_margin: the smallest base-disk bound beyond what matters. That bound
-        # shrinks by at most free_step per step (each reach changes by at most
-        # seg_end * step), so no check is needed for free_margin / free_step steps.
-        free_margin = 1e300     # the step rule cannot fail before this clears
-        efree_margin = 1e300    # the energy has no term before this clears
         mx = 0.5 * (x0 + x1)
         my = 0.5 * (y0 + y1)
         hi = 0.5 * (s1 - s0)
-        for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
+        for m in range(near_cnt[i]):
+            k = near_k[i, m]
             j = nbr_idx[k]
             th = bi + buffer[j] + margin
-            lb = nbr_dist[k] - rho_i - rho[j]
-            if lb - th < free_margin:
-                free_margin = lb - th
-            if lb - ENERGY_CUTOFF_MM < efree_margin:
-                efree_margin = lb - ENERGY_CUTOFF_MM
-            if lb > th:
+            if nbr_dist[k] - rho_i - rho[j] > th:
                 continue
             ux = 0.5 * (seg[j, 0] + seg[j, 2]) - mx
             uy = 0.5 * (seg[j, 1] + seg[j, 3]) - my
@@ -274,32 +271,33 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
             th = bi + fid_buffer + margin
             for k in range(fid_ptr[i], fid_ptr[i + 1]):
                 f = fid_idx[k]
-                fm = math.hypot(fid_xy[f, 0] - bx, fid_xy[f, 1] - by) - rho_i - th
-                if fm < free_margin:
-                    free_margin = fm
                 if point_segment_distance(fid_xy[f, 0], fid_xy[f, 1], x0, y0, x1, y1) <= th:
                     hit = True
                     break
-        if not hit:
-            if free_margin > 0.0:
-                free_until[i] = step + int(free_margin / free_step) - 2
-            if efree_margin > 0.0:
-                efree_until[i] = step + int(efree_margin / free_step) - 2
         return -1 if hit else q
 
+    def encroached(i, margin, step):
+        """Eq. 10: is any neighbour within buffer_i + buffer_j + margin of robot i now?
 
-    def encroached(i, margin):
-        """Eq. 10: is any neighbour within buffer_i + buffer_j + margin of robot i now?"""
+        When none is, robot i (parked at home) cannot be encroached before every base-disk
+        bound has shrunk to the threshold; only neighbours move, each reach by at most
+        free_step / 2 per step, so no check is needed until ``home_until[i]``.
+        """
         hit = False
+        slack = 1e300
         for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
             j = nbr_idx[k]
             th = buffer[i] + buffer[j] + margin
-            if nbr_dist[k] - rho[i] - rho[j] > th:
+            lb = nbr_dist[k] - rho[i] - rho[j] - th
+            slack = min(slack, lb)
+            if lb > 0.0:
                 continue
             if segment_distance(seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3],
                                 seg[j, 0], seg[j, 1], seg[j, 2], seg[j, 3]) <= th:
                 hit = True
                 break
+        if not hit and slack > 0.0:
+            home_until[i] = step + int(slack / (0.5 * free_step)) - 1
         return hit
 
     def energy_gradient(i, s1, step):
@@ -315,14 +313,13 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         e = 0.0
         ga = 0.0
         gb = 0.0
-        if step < efree_until[i]:
-            return e, ga, gb
         ca_ = trig[i, 0]
         sa_ = trig[i, 1]
         cab = trig[i, 2]
         sab = trig[i, 3]
         seg_len = s1 - s0
-        for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
+        for m in range(near_cnt[i]):
+            k = near_k[i, m]
             j = nbr_idx[k]
             if nbr_dist[k] - rho[i] - rho[j] > ENERGY_CUTOFF_MM:
                 continue
@@ -377,7 +374,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         n_awake = 0
         step += 1
         for i in range(n):
-            if not movable[i] or (greedy and home[i]):
+            if not movable[i] or (greedy and home[i]) or step < home_until[i]:
                 continue
             if asleep_at[i] >= 0:
                 woken = False
@@ -388,6 +385,22 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                 if not woken:
                     continue
                 asleep_at[i] = -1
+            if step >= near_until[i]:
+                # Rebuild robot i's short list of neighbours that can matter. A neighbour
+                # is left out when its base-disk bound |b_i - b_j| - rho_i - rho_j exceeds
+                # what matters (the step-rule threshold; for MC also the energy cutoff) by
+                # more than NEAR_HORIZON * free_step. The bound shrinks by at most
+                # free_step per step (each reach changes by at most seg_end * step) and
+                # candidates are one step away, so the list holds NEAR_HORIZON - 2 steps.
+                cnt = 0
+                for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
+                    j = nbr_idx[k]
+                    ref = max(buffer[i] + buffer[j] + md, near_ref)
+                    if nbr_dist[k] - rho[i] - rho[j] - ref <= NEAR_HORIZON * free_step:
+                        near_k[i, cnt] = k
+                        cnt += 1
+                near_cnt[i] = cnt
+                near_until[i] = step + NEAR_HORIZON - 2
             ca = cur[i, 0]
             cb = cur[i, 1]
             da = dest[i, 0]
@@ -399,7 +412,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
 
             if home[i]:
                 # MC only (Eq. 10): stay unless a neighbour encroaches
-                if not encroached(i, 3.0 * md):
+                if not encroached(i, 3.0 * md, step):
                     asleep_at[i] = n_moves
                     n_ev = record(i, step, ca, cb, 0.0, 0.0, n_ev)
                     continue
@@ -449,13 +462,16 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                         break
             elif not greedy:
                 # Markov chain: random order; energy or cost; accept with prob. greed
-                # a uniform random order of the 9 candidates from one draw (Lehmer code)
-                code = np.random.randint(0, 362880)
+                # a uniform random order of the 9 candidates from one draw: Fisher-Yates
+                # with the indices read as mixed-radix digits of one uniform double
+                # (9! needs 19 of its 53 bits; no integer division)
+                x = np.random.random()
                 for p in range(9):
                     order[p] = p
                 for p in range(8, 0, -1):
-                    r = code % (p + 1)
-                    code //= p + 1
+                    x *= p + 1
+                    r = int(x)
+                    x -= r
                     t = order[p]
                     order[p] = order[r]
                     order[r] = t
