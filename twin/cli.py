@@ -48,21 +48,29 @@ EXIT_INCOMPLETE = 3
 EXIT_COLLISION = 4
 
 
-def resolve_layout(name: str, pitch_mm: float) -> Layout:
+def resolve_layout(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = ()) -> Layout:
     """Layout from a name: ``sdss-v-fps`` (the real 500-robot instrument), ``sdss-v-547``
-    (the paper's all-robot grid), ``hex:N`` (N positions or N rings when N < 37), or a CSV path."""
+    (the paper's all-robot grid), ``hex:N`` (N positions or N rings when N < 37), or a CSV path.
+    ``fiducial_ids`` turns positions of a generated grid into fiducials."""
+    if fiducial_ids and (name == "sdss-v-fps" or not (name == "sdss-v-547" or name.startswith("hex:"))):
+        raise LayoutError(f"--fiducials applies to generated grids (sdss-v-547, hex:N), not {name!r}; "
+                          "a CSV layout says each position's kind itself")
     if name == "sdss-v-fps":
         return Layout.sdss_v_fps()
     if name == "sdss-v-547":
-        return Layout.sdss_v_grid(pitch_mm=pitch_mm)
+        return Layout.sdss_v_grid(pitch_mm=pitch_mm, fiducial_ids=fiducial_ids)
     if name.startswith("hex:"):
         try:
             n = int(name[4:])
         except ValueError:
             raise LayoutError(f"layout {name!r}: 'hex:N' needs an integer N") from None
-        if n < 37:
-            return Layout.hex_grid(n, pitch_mm)
-        return Layout.hex_grid_positions(n, pitch_mm)
+        grid = Layout.hex_grid(n, pitch_mm) if n < 37 else Layout.hex_grid_positions(n, pitch_mm)
+        if fiducial_ids:
+            grid.robot_indices(list(fiducial_ids))  # names an unknown id
+            kinds = grid.kinds.copy()
+            kinds[np.isin(grid.ids, fiducial_ids)] = "fiducial"
+            grid = Layout(grid.ids, grid.xy, kinds, name=grid.name)
+        return grid
     path = Path(name)
     if path.suffix.lower() != ".csv" and not path.exists():
         raise LayoutError(f"layout {name!r}: allowed: sdss-v-fps, sdss-v-547, hex:N or a CSV file")
@@ -133,6 +141,8 @@ def plan(
     preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
     layout: Optional[str] = typer.Option(None, help="sdss-v-fps | sdss-v-547 | hex:N | CSV file "
                                          "[default: sdss-v-fps for SDSS-V presets, hex:547 otherwise]"),
+    fiducials: str = typer.Option("", help="Comma-separated position ids that are fiducials "
+                                  "(generated grids only)."),
     buffer: Optional[float] = typer.Option(None, help="Collision buffer sigma_cb, mm [default: preset]."),
     step: float = typer.Option(0.1, help="Angular step, deg."),
     algorithm: str = typer.Option("greedy", help="greedy | markov"),
@@ -160,7 +170,11 @@ def plan(
         raise RfpError(f"--algorithm {algorithm!r}; allowed: {', '.join(ALGORITHMS)}")
     if direction not in DIRECTIONS:
         raise RfpError(f"--direction {direction!r}; allowed: {', '.join(DIRECTIONS)}")
-    lay = resolve_layout(layout, spec.pitch_mm)
+    try:
+        fid_ids = tuple(int(v) for v in fiducials.split(",") if v.strip())
+    except ValueError:
+        raise LayoutError(f"--fiducials {fiducials!r}; allowed: comma-separated integer ids") from None
+    lay = resolve_layout(layout, spec.pitch_mm, fid_ids)
     geom = ArrayGeometry(spec, lay, spec.buffer_mm)
     settings = PlannerSettings(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,
                                direction=direction, max_steps=max_steps)

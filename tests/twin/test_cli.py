@@ -122,3 +122,26 @@ def test_unresolved_deadlock_exits_nonzero_but_keeps_the_evidence(tmp_path):
     assert "deadlocked" in r.stderr
     with open(out / "targets.csv") as fh:
         assert "deadlocked" in {row["status"] for row in csv.DictReader(fh)}
+
+
+def test_fiducials_on_a_generated_grid(tmp_path):
+    out = tmp_path / "o"
+    r = run("plan", "--layout", "hex:37", "--fiducials", "0,18", "--seed", "2", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    lay = Layout.from_csv(out / "layout.csv")
+    assert lay.n_robots == 35 and sorted(lay.fiducial_ids.tolist()) == [0, 18]
+    r = run("plan", "--layout", "hex:37", "--fiducials", "99", "--out", str(tmp_path / "p"))
+    assert r.returncode == 2 and "99" in r.stderr
+
+
+def test_malformed_robot_toml_and_nan_targets(tmp_path):
+    bad = tmp_path / "robot.toml"
+    bad.write_text("[robot\nname = 1\n")
+    r = run("plan", "--preset", str(bad), "--layout", "hex:1", "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "malformed TOML" in r.stderr
+    tg = tmp_path / "t.csv"
+    tg.write_text("robot_id,alpha_deg,beta_deg\n" + "".join(f"{i},10,170\n" for i in range(6))
+                  + "6,nan,170\n")
+    r = run("plan", "--layout", "hex:1", "--targets", str(tg), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "robot 6" in r.stderr and "NaN" in r.stderr
+    assert not (tmp_path / "o").exists()
