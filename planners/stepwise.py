@@ -28,10 +28,14 @@ the pair distance cannot drop by more than (l_alpha + 2 r_max) d below the mean 
 two end values, which MD covers whenever r_max <= l_beta + l_alpha / 2. ``max_disp``
 takes the larger of Eq. 7 and that bound, so the guarantee holds for any segment.
 
-Speed (see benchmarks/): no arrays are created inside the step loop; a robot whose
-best candidate is to stay sleeps until one of its neighbours moves; candidates are tried
-in order of cost so the obvious move is checked first; and a cheap disk bound skips
-neighbour pairs that cannot be within reach (the bound subsumes the Eq. 14 early exit).
+Speed (see benchmarks/RESULTS.md): no arrays are created inside the step loop and the
+helpers are closures (numba inlines them without reference counting); a robot whose best
+candidate is to stay sleeps until one of its neighbours moves; candidates are tried in
+order of cost so the obvious move is checked first; each robot keeps a short list of the
+neighbours that can matter in the next NEAR_HORIZON steps, and two cheap disk bounds skip
+most pairs before the exact segment test; trig functions of a candidate come from
+rotating the current ones by one step. MC ranks the energy of its nine candidates by the
+energy gradient (one pass over the neighbours instead of nine).
 """
 from __future__ import annotations
 
