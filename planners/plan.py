@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numba import njit
 
 #: Per-robot outcome of planning.
 REACHED = "reached"        # kept its target and the plan reaches it
@@ -96,41 +97,57 @@ def build_paths(n: int, ev_robot: np.ndarray, ev_step: np.ndarray, ev_angles: np
                 start: np.ndarray, end: np.ndarray, n_steps: int):
     """CSR paths from kernel breakpoints, adding each robot's start and end points.
 
-    Returns path_ptr (n+1,), path_step (m,), path_angles (m, 2).
+    The kernel writes breakpoints in step order, so a counting sort by robot keeps each
+    robot's points in time order. Returns path_ptr (n+1,), path_step (m,), path_angles (m, 2).
     """
-    order = np.lexsort((ev_step, ev_robot))
-    ev_robot = ev_robot[order]
-    ev_step = ev_step[order].astype(np.float64)
-    ev_angles = ev_angles[order]
-    # every robot gets (0, start) and (n_steps, end); drop duplicates of those
-    robots = np.concatenate([np.arange(n), ev_robot, np.arange(n)])
-    steps = np.concatenate([np.zeros(n), ev_step, np.full(n, float(n_steps))])
-    angles = np.concatenate([start, ev_angles, end])
-    rank = np.concatenate([np.zeros(n), np.ones(ev_robot.size), np.full(n, 2.0)])
-    order = np.lexsort((rank, steps, robots))
-    robots, steps, angles = robots[order], steps[order], angles[order]
-    keep = np.ones(robots.size, dtype=bool)
-    same = (robots[1:] == robots[:-1]) & (steps[1:] == steps[:-1])
-    keep[1:] &= ~same
-    robots, steps, angles = robots[keep], steps[keep], angles[keep]
-    keep = _drop_collinear(robots, steps, angles)
-    robots, steps, angles = robots[keep], steps[keep], angles[keep]
+    return _build_paths(n, np.ascontiguousarray(ev_robot, dtype=np.int64),
+                        np.ascontiguousarray(ev_step, dtype=np.int64),
+                        np.ascontiguousarray(ev_angles, dtype=np.float64),
+                        np.ascontiguousarray(start, dtype=np.float64),
+                        np.ascontiguousarray(end, dtype=np.float64), int(n_steps))
+
+
+@njit(cache=True)
+def _build_paths(n, ev_robot, ev_step, ev_angles, start, end, n_steps):
+    count = np.ones(n, dtype=np.int64) * 2          # start and end point
+    for e in range(ev_robot.shape[0]):
+        count[ev_robot[e]] += 1
     ptr = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(np.bincount(robots, minlength=n), out=ptr[1:])
-    return ptr, steps, angles
-
-
-def _drop_collinear(robots: np.ndarray, steps: np.ndarray, angles: np.ndarray,
-                    tol: float = 1e-9) -> np.ndarray:
-    """Mask that keeps first/last points per robot and points where the slope changes."""
-    keep = np.ones(robots.size, dtype=bool)
-    if robots.size < 3:
-        return keep
-    inner = (robots[1:-1] == robots[:-2]) & (robots[1:-1] == robots[2:])
-    dt0 = steps[1:-1] - steps[:-2]
-    dt1 = steps[2:] - steps[1:-1]
-    s0 = (angles[1:-1] - angles[:-2]) / np.maximum(dt0, 1e-300)[:, None]
-    s1 = (angles[2:] - angles[1:-1]) / np.maximum(dt1, 1e-300)[:, None]
-    straight = np.all(np.abs(s0 - s1) <= tol, axis=1) & (dt0 > 0) & (dt1 > 0)
-    keep[1:-1] = ~(inner & straight)
-    return keep
+    for i in range(n):
+        ptr[i + 1] = ptr[i] + count[i]
+    steps = np.empty(ptr[n])
+    angles = np.empty((ptr[n], 2))
+    fill = ptr[:-1].copy()
+    for i in range(n):
+        steps[fill[i]] = 0.0
+        angles[fill[i], 0] = start[i, 0]
+        angles[fill[i], 1] = start[i, 1]
+        fill[i] += 1
+    for e in range(ev_robot.shape[0]):
+        i = ev_robot[e]
+        k = fill[i]
+        if ev_step[e] == steps[k - 1]:
+            k -= 1                                   # same step as the previous point
+        steps[k] = ev_step[e]
+        angles[k, 0] = ev_angles[e, 0]
+        angles[k, 1] = ev_angles[e, 1]
+        fill[i] = k + 1
+    for i in range(n):
+        k = fill[i]
+        if steps[k - 1] == n_steps:
+            k -= 1
+        steps[k] = n_steps
+        angles[k, 0] = end[i, 0]
+        angles[k, 1] = end[i, 1]
+        fill[i] = k + 1
+    # compact away the slots freed by merged duplicates
+    out_ptr = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n):
+        out_ptr[i + 1] = out_ptr[i] + (fill[i] - ptr[i])
+    out_steps = np.empty(out_ptr[n])
+    out_angles = np.empty((out_ptr[n], 2))
+    for i in range(n):
+        m = fill[i] - ptr[i]
+        out_steps[out_ptr[i]:out_ptr[i] + m] = steps[ptr[i]:ptr[i] + m]
+        out_angles[out_ptr[i]:out_ptr[i] + m] = angles[ptr[i]:ptr[i] + m]
+    return out_ptr, out_steps, out_angles
