@@ -27,7 +27,7 @@ pitch_mm = 22.4
 alpha_limits_deg = [0.0, 360.0]
 beta_limits_deg = [0.0, 360.0]
 max_speed_deg_s = [30.0, 30.0]
-max_accel_deg_s2 = [300.0, 300.0]
+max_accel_deg_s2 = [45.0, 45.0]
 fold_deg = [10.0, 170.0]
 angular_error_deg = [1.5, 1.48]
 
