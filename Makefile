@@ -7,10 +7,16 @@ DEMO_OUT ?= out/demo
 
 .PHONY: demo test bench sysdeps clean
 
-# System packages: none are needed yet beyond python3-venv; install it if venv is missing.
+# System packages: python3-venv, and Mesa's EGL / OSMesa / GL libraries for offscreen
+# MuJoCo rendering. Installed only when missing (needs root, as on the project machines).
+SYS_LIBS := libEGL.so.1:libegl1 libOSMesa.so.8:libosmesa6 libGL.so.1:libgl1
 sysdeps:
-	@$(PY) -c "import venv, ensurepip" 2>/dev/null || { \
-	  echo "installing python3-venv"; apt-get update -qq && apt-get install -y -qq python3-venv; }
+	@missing=""; \
+	$(PY) -c "import venv, ensurepip" 2>/dev/null || missing="python3-venv"; \
+	for pair in $(SYS_LIBS); do lib=$${pair%%:*}; pkg=$${pair##*:}; \
+	  ldconfig -p | grep -q "$$lib" || missing="$$missing $$pkg"; done; \
+	if [ -n "$$missing" ]; then echo "installing:$$missing"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; fi
 
 $(STAMP): pyproject.toml | sysdeps
 	$(PY) -m venv $(VENV)
@@ -21,12 +27,14 @@ $(STAMP): pyproject.toml | sysdeps
 demo: $(STAMP)
 	rm -rf $(DEMO_OUT)
 	$(BIN)/rfp-twin plan --preset sdss-v --out $(DEMO_OUT) --seed 1
+	$(BIN)/rfp-twin simulate $(DEMO_OUT)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_planner.py
+	$(BIN)/python benchmarks/bench_sim.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

@@ -50,7 +50,8 @@ EXIT_COLLISION = 4
 
 def resolve_layout(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = ()) -> Layout:
     """Layout from a name: ``sdss-v-fps`` (the real 500-robot instrument), ``sdss-v-547``
-    (the paper's all-robot grid), ``hex:N`` (N positions or N rings when N < 37), or a CSV path.
+    (the paper's all-robot grid), ``hex:N`` (a hex grid of N positions: 7, 19, 37, 61, 91, ...),
+    or a CSV path.
     ``fiducial_ids`` turns positions of a generated grid into fiducials."""
     if fiducial_ids and (name == "sdss-v-fps" or not (name == "sdss-v-547" or name.startswith("hex:"))):
         raise LayoutError(f"--fiducials applies to generated grids (sdss-v-547, hex:N), not {name!r}; "
@@ -64,7 +65,7 @@ def resolve_layout(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = (
             n = int(name[4:])
         except ValueError:
             raise LayoutError(f"layout {name!r}: 'hex:N' needs an integer N") from None
-        grid = Layout.hex_grid(n, pitch_mm) if n < 37 else Layout.hex_grid_positions(n, pitch_mm)
+        grid = Layout.hex_grid_positions(n, pitch_mm)
         if fiducial_ids:
             grid.robot_indices(list(fiducial_ids))  # names an unknown id
             kinds = grid.kinds.copy()
@@ -170,11 +171,7 @@ def plan(
         raise RfpError(f"--algorithm {algorithm!r}; allowed: {', '.join(ALGORITHMS)}")
     if direction not in DIRECTIONS:
         raise RfpError(f"--direction {direction!r}; allowed: {', '.join(DIRECTIONS)}")
-    try:
-        fid_ids = tuple(int(v) for v in fiducials.split(",") if v.strip())
-    except ValueError:
-        raise LayoutError(f"--fiducials {fiducials!r}; allowed: comma-separated integer ids") from None
-    lay = resolve_layout(layout, spec.pitch_mm, fid_ids)
+    lay = resolve_layout(layout, spec.pitch_mm, _parse_ids(fiducials, "--fiducials"))
     geom = ArrayGeometry(spec, lay, spec.buffer_mm)
     settings = PlannerSettings(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,
                                direction=direction, max_steps=max_steps)
@@ -235,6 +232,83 @@ def plan(
         err_console.print(f"[red]error:[/] {n_dead} robot(s) still deadlocked after "
                           f"{m['rounds']} round(s); see {out}/targets.csv")
         raise typer.Exit(EXIT_INCOMPLETE)
+
+
+model_app = typer.Typer(no_args_is_help=True, help="The MuJoCo model of an array.")
+app.add_typer(model_app, name="model")
+
+
+@model_app.command("export")
+def model_export(
+    out: Path = typer.Option(..., help="Folder for rfp-twin.xml and meshes/."),
+    preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
+    layout: Optional[str] = typer.Option(None, help="sdss-v-fps | sdss-v-547 | hex:N | CSV file."),
+    fiducials: str = typer.Option("", help="Comma-separated fiducial ids (generated grids)."),
+    timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
+) -> None:
+    """Write the MuJoCo model (MJCF + STL meshes); MuJoCo's own viewer opens it."""
+    from models.mjcf import ModelOptions, export_model
+
+    spec = load_spec(preset)
+    lay = resolve_layout(layout or ("sdss-v-fps" if spec.name.startswith("sdss-v") else "hex:547"),
+                         spec.pitch_mm, _parse_ids(fiducials, "--fiducials"))
+    path = export_model(spec, lay, out, options=ModelOptions(timestep_s=timestep))
+    console.print(f"wrote {path} ({lay.n_robots} robots, {lay.n_fiducials} fiducials)")
+
+
+def _parse_ids(text: str, option: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise LayoutError(f"{option} {text!r}; allowed: comma-separated integer ids") from None
+
+
+def _parse_faults(stuck: list[str], slow: list[str], offset: list[str]):
+    from twin.sim import EncoderOffset, Slow, Stuck
+
+    faults = []
+    for opt, items, cls, n_args in (("--stuck", stuck, Stuck, 2), ("--slow", slow, Slow, 2),
+                                    ("--encoder-offset", offset, EncoderOffset, 3)):
+        for item in items:
+            bits = item.split(":")
+            try:
+                if len(bits) != n_args:
+                    raise ValueError
+                faults.append(cls(int(bits[0]), *(float(b) for b in bits[1:])))
+            except ValueError:
+                form = {"--stuck": "ID:TIME_S", "--slow": "ID:FACTOR",
+                        "--encoder-offset": "ID:ALPHA_DEG:BETA_DEG"}[opt]
+                raise RfpError(f"{opt} {item!r}; allowed: {form}") from None
+    return faults
+
+
+@app.command()
+def simulate(
+    run: Path = typer.Argument(..., help="Run folder written by `rfp-twin plan`."),
+    stuck: list[str] = typer.Option([], help="Fault: robot stuck from a time, ID:TIME_S."),
+    slow: list[str] = typer.Option([], help="Fault: robot running slow, ID:FACTOR."),
+    encoder_offset: list[str] = typer.Option([], help="Fault: encoder offset, ID:ALPHA_DEG:BETA_DEG."),
+    timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
+) -> None:
+    """Run the plan in the MuJoCo twin; writes RUN/sim.json; exit 4 on any robot contact."""
+    from models.mjcf import ModelOptions, build_model
+    from twin.run_dir import load_run
+    from twin.sim import simulate as run_sim
+
+    spec, lay, traj, _ = load_run(run)
+    faults = _parse_faults(stuck, slow, encoder_offset)
+    twin = build_model(spec, lay, options=ModelOptions(timestep_s=timestep))
+    with Progress(TextColumn("[bold]simulating[/]"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+                  TimeElapsedColumn(), console=err_console, transient=True) as progress:
+        task = progress.add_task("sim", total=traj.duration + 0.5)
+        report = run_sim(twin, traj, faults,
+                         callback=lambda t, m, d: progress.update(task, completed=t), record=False)
+    report.to_json(Path(run) / "sim.json")
+    console.print(report.table())
+    if report.collided:
+        err_console.print(f"[red]error:[/] {report.robot_contacts} robot-robot contact(s) in simulation; "
+                          f"see {run}/sim.json")
+        raise typer.Exit(EXIT_COLLISION)
 
 
 def print_summary(summary: dict, out: Path) -> None:

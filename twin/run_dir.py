@@ -111,6 +111,24 @@ def write_run(out: Path, *, spec: RobotSpec, layout: Layout, plan: Plan, traject
     return out
 
 
+def load_run(run: str | Path) -> tuple[RobotSpec, Layout, Trajectory, dict]:
+    """Read a run folder written by :func:`write_run`: spec, layout, trajectory, summary."""
+    from models.robot import load_spec
+
+    run = Path(run)
+    if not run.is_dir():
+        raise RfpError(f"{run}: run folder not found; allowed: a folder written by `rfp-twin plan`")
+    missing = [f for f in (TRAJECTORIES, LAYOUT, ROBOT) if not (run / f).is_file()]
+    if missing:
+        raise RfpError(f"{run}: missing {', '.join(missing)}; allowed: a folder written by "
+                       "`rfp-twin plan`")
+    spec = load_spec(run / ROBOT)
+    layout = Layout.from_csv(run / LAYOUT, min_separation_mm=0.0)
+    traj = Trajectory.from_json(run / TRAJECTORIES)
+    summary = json.loads((run / SUMMARY).read_text()) if (run / SUMMARY).is_file() else {}
+    return spec, layout, traj, summary
+
+
 def _json_default(obj):
     if isinstance(obj, np.generic):
         return obj.item()

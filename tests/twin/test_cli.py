@@ -62,7 +62,7 @@ def test_targets_csv_by_fiber_position(tmp_path):
         w.writerow(["robot_id", "x_mm", "y_mm"])
         for rid, (x, y) in zip(lay.robot_ids, lay.robot_xy):
             w.writerow([rid, x + 12.0, y + 5.0])
-    r = run("plan", "--layout", "hex:1", "--targets", str(path), "--out", str(tmp_path / "o"))
+    r = run("plan", "--layout", "hex:7", "--targets", str(path), "--out", str(tmp_path / "o"))
     assert r.returncode == 0, r.stderr
 
 
@@ -92,13 +92,13 @@ def test_bad_layout_and_targets_files(tmp_path):
     assert r.returncode == 2 and "duplicate" in r.stderr.lower()
     tg = tmp_path / "t.csv"
     tg.write_text("robot_id,alpha_deg,beta_deg\n" + "".join(f"{i},10,170\n" for i in range(7)) + "77,1,1\n")
-    r = run("plan", "--layout", "hex:1", "--targets", str(tg), "--out", str(tmp_path / "o"))
+    r = run("plan", "--layout", "hex:7", "--targets", str(tg), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "unknown robot id 77" in r.stderr
     tg.write_text("robot_id,alpha_deg,beta_deg\n" + "".join(f"{i},10,170\n" for i in range(6)))
-    r = run("plan", "--layout", "hex:1", "--targets", str(tg), "--out", str(tmp_path / "o"))
+    r = run("plan", "--layout", "hex:7", "--targets", str(tg), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "no target row" in r.stderr
     tg.write_text("robot_id,x_mm,y_mm\n" + "".join(f"{i},0,0\n" for i in range(7)))
-    r = run("plan", "--layout", "hex:1", "--targets", str(tg), "--out", str(tmp_path / "o"))
+    r = run("plan", "--layout", "hex:7", "--targets", str(tg), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "unreachable" in r.stderr and "allowed" in r.stderr
     assert not (tmp_path / "o").exists()
 
@@ -107,16 +107,16 @@ def test_existing_output_is_kept_unless_forced(tmp_path):
     out = tmp_path / "o"
     out.mkdir()
     (out / "mine.txt").write_text("keep me")
-    r = run("plan", "--layout", "hex:1", "--out", str(out))
+    r = run("plan", "--layout", "hex:7", "--out", str(out))
     assert r.returncode == 2 and "exists" in r.stderr
     assert (out / "mine.txt").read_text() == "keep me"
-    r = run("plan", "--layout", "hex:1", "--out", str(out), "--force")
+    r = run("plan", "--layout", "hex:7", "--out", str(out), "--force")
     assert r.returncode == 0 and not (out / "mine.txt").exists()
 
 
 def test_unresolved_deadlock_exits_nonzero_but_keeps_the_evidence(tmp_path):
     out = tmp_path / "o"
-    r = run("plan", "--layout", "hex:2", "--buffer", "3.5", "--step", "0.5", "--direction", "forward",
+    r = run("plan", "--layout", "hex:19", "--buffer", "3.5", "--step", "0.5", "--direction", "forward",
             "--no-resolve", "--seed", "0", "--out", str(out))
     assert r.returncode == 3, r.stderr
     assert "deadlocked" in r.stderr
@@ -137,11 +137,32 @@ def test_fiducials_on_a_generated_grid(tmp_path):
 def test_malformed_robot_toml_and_nan_targets(tmp_path):
     bad = tmp_path / "robot.toml"
     bad.write_text("[robot\nname = 1\n")
-    r = run("plan", "--preset", str(bad), "--layout", "hex:1", "--out", str(tmp_path / "o"))
+    r = run("plan", "--preset", str(bad), "--layout", "hex:7", "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "malformed TOML" in r.stderr
     tg = tmp_path / "t.csv"
     tg.write_text("robot_id,alpha_deg,beta_deg\n" + "".join(f"{i},10,170\n" for i in range(6))
                   + "6,nan,170\n")
-    r = run("plan", "--layout", "hex:1", "--targets", str(tg), "--out", str(tmp_path / "o"))
+    r = run("plan", "--layout", "hex:7", "--targets", str(tg), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "robot 6" in r.stderr and "NaN" in r.stderr
     assert not (tmp_path / "o").exists()
+
+
+def test_simulate_and_model_export(tmp_path):
+    out = tmp_path / "run"
+    assert run("plan", "--layout", "hex:19", "--seed", "1", "--out", str(out)).returncode == 0
+    r = run("simulate", str(out))
+    assert r.returncode == 0, r.stderr
+    sim = json.loads((out / "sim.json").read_text())
+    assert sim["contact_pairs"] == [] and sim["not_reached"] == []
+    r = run("simulate", str(out), "--stuck", "3:0.5")
+    assert r.returncode == 0 and "stuck" in r.stdout
+    assert json.loads((out / "sim.json").read_text())["not_reached"] == [3]
+    r = run("simulate", str(out), "--slow", "x")
+    assert r.returncode == 2 and "ID:FACTOR" in r.stderr
+    r = run("simulate", str(tmp_path / "nope"))
+    assert r.returncode == 2 and "run folder not found" in r.stderr
+    r = run("model", "export", "--out", str(tmp_path / "model"), "--layout", "hex:7")
+    assert r.returncode == 0, r.stderr
+    import mujoco
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "model" / "rfp-twin.xml"))
+    assert m.njnt == 2 * 7
