@@ -28,6 +28,8 @@ demo: $(STAMP)
 	rm -rf $(DEMO_OUT)
 	$(BIN)/rfp-twin plan --preset sdss-v --out $(DEMO_OUT) --seed 1
 	$(BIN)/rfp-twin simulate $(DEMO_OUT)
+	$(BIN)/rfp-twin render $(DEMO_OUT) --out $(DEMO_OUT)/fold.mp4 --speedup 2
+	$(BIN)/rfp-twin record $(DEMO_OUT) --out $(DEMO_OUT)/run.rrd
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
@@ -35,6 +37,7 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_planner.py
 	$(BIN)/python benchmarks/bench_sim.py
+	$(BIN)/python benchmarks/bench_render.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

@@ -311,6 +311,58 @@ def simulate(
         raise typer.Exit(EXIT_COLLISION)
 
 
+@app.command()
+def render(
+    run: Path = typer.Argument(..., help="Run folder written by `rfp-twin plan`."),
+    out: Path = typer.Option(Path("fold.mp4"), help="MP4 file to write."),
+    camera: Optional[str] = typer.Option(None, help="top | oblique | closeup [default: top, "
+                                         "closeup with --robot]."),
+    robot: Optional[int] = typer.Option(None, help="Robot id for the close-up camera."),
+    width: int = typer.Option(1280, help="Frame width, px."),
+    height: int = typer.Option(720, help="Frame height, px."),
+    fps: float = typer.Option(30.0, help="Frames per second of the video."),
+    speedup: float = typer.Option(1.0, help="Simulated seconds per video second."),
+    fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
+    full_quality: bool = typer.Option(False, help="Shadows, reflections, MSAA (slow on a CPU)."),
+) -> None:
+    """Simulate a run and render it offscreen to MP4 (robots coloured by state)."""
+    from twin.render import RenderSettings, render_run  # first: picks MUJOCO_GL before mujoco
+
+    from models.mjcf import build_model
+    from twin.run_dir import load_run
+
+    spec, lay, traj, _ = load_run(run, to_fold=fold)
+    settings = RenderSettings(width=width, height=height, fps=fps, speedup=speedup,
+                              camera=camera or ("closeup" if robot is not None else "top"),
+                              robot_id=robot, lean=not full_quality)
+    with Progress(TextColumn("[bold]rendering[/]"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} frames"), TimeElapsedColumn(),
+                  console=err_console, transient=True) as progress:
+        task = progress.add_task("render", total=None)
+        report = render_run(build_model(spec, lay), traj, out, settings,
+                            progress=lambda i, n: progress.update(task, completed=i, total=n))
+    console.print(f"wrote {out}: {report.frames} frames, {report.fps_rendered:.1f} frames/s "
+                  f"rendered, {report.fps_achieved:.1f} frames/s with encoding ({report.backend})")
+
+
+@app.command()
+def record(
+    run: Path = typer.Argument(..., help="Run folder written by `rfp-twin plan`."),
+    out: Path = typer.Option(Path("run.rrd"), help=".rrd file to write."),
+    fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
+    dt: Optional[float] = typer.Option(None, help="Seconds between logged poses [default 0.02]."),
+) -> None:
+    """Simulate a run and write a rerun recording: arm poses, fiber traces, contacts."""
+    from models.mjcf import build_model
+    from twin.record import RecordSettings, record_run
+    from twin.run_dir import load_run
+
+    spec, lay, traj, _ = load_run(run, to_fold=fold)
+    with err_console.status("simulating and recording"):
+        path = record_run(build_model(spec, lay), traj, out, settings=RecordSettings(dt_s=dt))
+    console.print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB); open it with `rerun {path}`")
+
+
 def print_summary(summary: dict, out: Path) -> None:
     m = summary["metrics"]
     c = summary["check2d"]

@@ -111,20 +111,25 @@ def write_run(out: Path, *, spec: RobotSpec, layout: Layout, plan: Plan, traject
     return out
 
 
-def load_run(run: str | Path) -> tuple[RobotSpec, Layout, Trajectory, dict]:
-    """Read a run folder written by :func:`write_run`: spec, layout, trajectory, summary."""
+def load_run(run: str | Path, to_fold: bool = False) -> tuple[RobotSpec, Layout, Trajectory, dict]:
+    """Read a run folder written by :func:`write_run`: spec, layout, trajectory, summary.
+
+    The trajectory is the unfold (``trajectories.json``) or, with ``to_fold``, the fold
+    (``trajectories_to_fold.json``).
+    """
     from models.robot import load_spec
 
     run = Path(run)
     if not run.is_dir():
         raise RfpError(f"{run}: run folder not found; allowed: a folder written by `rfp-twin plan`")
-    missing = [f for f in (TRAJECTORIES, LAYOUT, ROBOT) if not (run / f).is_file()]
+    traj_file = TRAJECTORIES_TO_FOLD if to_fold else TRAJECTORIES
+    missing = [f for f in (ROBOT, LAYOUT, traj_file) if not (run / f).is_file()]
     if missing:
-        raise RfpError(f"{run}: missing {', '.join(missing)}; allowed: a folder written by "
+        raise RfpError(f"{run}: {', '.join(missing)} is missing; allowed: a folder written by "
                        "`rfp-twin plan`")
     spec = load_spec(run / ROBOT)
-    layout = Layout.from_csv(run / LAYOUT, min_separation_mm=0.0)
-    traj = Trajectory.from_json(run / TRAJECTORIES)
+    layout = Layout.from_csv(run / LAYOUT, min_separation_mm=min(1.0, spec.pitch_mm / 4))
+    traj = Trajectory.from_json(run / traj_file)
     summary = json.loads((run / SUMMARY).read_text()) if (run / SUMMARY).is_file() else {}
     return spec, layout, traj, summary
 

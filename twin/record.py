@@ -1,0 +1,346 @@
+"""A Rerun recording (.rrd) of a run: arm poses over time, fiber traces, contacts.
+
+What the file holds (entity paths; world frame in mm, z up; timeline ``sim_time``, a
+duration in seconds of simulated time):
+
+``robots/<id>``
+    the robot frame (static ``Transform3D``: the pose of the robot's base body).
+``robots/<id>/body``, ``robots/<id>/alpha``, ``robots/<id>/alpha/beta``
+    each link's visual mesh (:meth:`models.geometry.RobotGeometry.link_meshes`, in its
+    link frame, static) and, for alpha and beta, its pose relative to the parent link
+    over time (``Transform3D``: the MuJoCo body poses ``xpos``/``xquat`` made relative;
+    a body frame is its link frame). A pose is logged only when the robot moved since
+    its previous sample, so still robots cost nothing.
+``robots/<id>/alpha/beta/fibers``
+    the fiber tips as points in the beta frame (static): they ride with the beta arm.
+``fiducials/<id>``, ``plate``
+    static meshes / box.
+``traces/<fiber>``
+    the path of that fiber of every robot over the whole run, one line strip per robot
+    (world frame, static; about one point per :data:`TRACE_SPACING_MM` of path).
+``contacts``
+    the simulation's contacts (:class:`twin.sim.ContactLog`) as red points at the
+    contact positions, labelled with the pair and depth, on the record time grid; an
+    empty set after each contact so that markers vanish when the contact ends.
+``summary``
+    a markdown summary of the simulation (static).
+
+The file is written to a temp file beside the destination and renamed onto it when
+complete; ``rerun rrd verify FILE`` checks it.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import rerun as rr
+
+from models.errors import RfpError
+from models.mjcf import RGBA, TwinModel
+from planners.trajectory import Trajectory
+from twin.sim import SimReport, SimSettings, simulate
+
+#: Name of the time line.
+TIMELINE = "sim_time"
+APPLICATION_ID = "rfp-twin"
+#: A link pose is logged again when an angle moved more than this since the last one, deg.
+POSE_EPS_DEG = 1e-4
+CONTACT_RGBA = (1.0, 0.1, 0.05, 1.0)
+CONTACT_RADIUS_MM = 0.6
+TRACE_RADIUS_MM = 0.08
+#: Fiber traces keep about one point per this much path length, mm (an arc of radius
+#: 15 mm drawn with 0.5 mm chords is off by 0.002 mm).
+TRACE_SPACING_MM = 0.5
+FIBER_RADIUS_MM = 0.15
+FIBER_RGBA = {"metrology": (0.1, 0.9, 0.2, 1.0), "boss": (0.2, 0.4, 1.0, 1.0),
+              "apogee": (1.0, 0.2, 0.2, 1.0)}
+DEFAULT_FIBER_RGBA = (0.9, 0.9, 0.2, 1.0)
+
+
+class RecordError(RfpError):
+    """A recording cannot be made: a report without its record, an unwritable output,
+    an incomplete run folder."""
+
+
+@dataclass(frozen=True)
+class RecordSettings:
+    """What to record.
+
+    dt_s : time between logged poses (default: every sample of the simulation record,
+        20 ms); rounded to a whole number of record samples.
+    trace_fibers : names of the fibers to trace (default: all of the geometry's fibers).
+    contacts : log the contact markers.
+    """
+
+    dt_s: float | None = None
+    trace_fibers: tuple[str, ...] | None = None
+    contacts: bool = True
+
+    def __post_init__(self) -> None:
+        if self.dt_s is not None and not (isinstance(self.dt_s, (int, float))
+                                          and math.isfinite(self.dt_s) and self.dt_s > 0):
+            raise RecordError(f"field 'dt_s' = {self.dt_s!r}; allowed: a finite number > 0 s")
+
+
+# -- helpers ----------------------------------------------------------------------------------
+def _xyzw(wxyz: np.ndarray) -> np.ndarray:
+    """MuJoCo (w, x, y, z) quaternions -> Rerun (x, y, z, w)."""
+    q = np.asarray(wxyz, dtype=np.float64)
+    return np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
+
+
+def _quat_conj(q: np.ndarray) -> np.ndarray:
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of (..., 4) (w, x, y, z) quaternions (broadcasting)."""
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz,
+                     aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw], axis=-1)
+
+
+def _rgba8(rgba) -> list[int]:
+    return [int(round(255 * float(np.clip(c, 0.0, 1.0)))) for c in rgba]
+
+
+def _mesh3d(mesh, rgba) -> rr.Mesh3D:
+    return rr.Mesh3D(vertex_positions=np.asarray(mesh.vertices, np.float32),
+                     triangle_indices=np.asarray(mesh.faces, np.uint32),
+                     vertex_normals=np.asarray(mesh.vertex_normals, np.float32),
+                     albedo_factor=_rgba8(rgba))
+
+
+def _changed(angles: np.ndarray, eps: float) -> np.ndarray:
+    """(T, n) bool, the samples of each robot worth logging: the first, and every one
+    whose angles moved more than ``eps`` (deg) from the sample before."""
+    keep = np.ones(angles.shape[:2], dtype=bool)
+    if angles.shape[0] > 1:
+        keep[1:] = np.abs(np.diff(angles, axis=0)).max(axis=2) > eps
+    return keep
+
+
+def _strip(points: np.ndarray, spacing: float = TRACE_SPACING_MM) -> np.ndarray:
+    """A (T, 3) path thinned to about one point per ``spacing`` mm of path length (the
+    first and last points kept; a still robot gives 2 equal points)."""
+    if len(points) < 2:
+        return np.vstack([points, points])
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+    cell = np.floor(s / spacing)
+    keep = np.ones(len(points), dtype=bool)
+    keep[1:] = cell[1:] != cell[:-1]
+    keep[-1] = True
+    out = points[keep]
+    return out if len(out) >= 2 else np.vstack([out, out])
+
+
+def _summary_markdown(report: SimReport) -> str:
+    d = report.to_dict()
+    pairs = [p for p in d["contact_pairs"] if "robot_b" in p]
+    fpairs = [p for p in d["contact_pairs"] if "fiducial" in p]
+    lines = ["# rfp-twin simulation", "",
+             f"- robots: {d['robots']}",
+             f"- simulated: {d['sim_s']:.2f} s (trajectory {d['trajectory_s']:.2f} s)",
+             f"- robot-robot contacts: {len(pairs)} pairs, max depth {d['max_depth_mm']:.3f} mm",
+             f"- robot-fiducial contacts: {len(fpairs)} pairs",
+             f"- not reached: {', '.join(map(str, d['not_reached'][:50])) or 'none'}",
+             f"- faults: {'; '.join(d['faults']) or 'none'}",
+             f"- MuJoCo warnings: {d['warnings'] or 'none'}",
+             f"- ok: {d['ok']}"]
+    return "\n".join(lines) + "\n"
+
+
+# -- the recording ----------------------------------------------------------------------------
+def record_run(twin: TwinModel, trajectory: Trajectory | None, out_rrd: str | Path,
+               sim_report: SimReport | None = None, faults=(),
+               sim_settings: SimSettings | None = None,
+               settings: RecordSettings | None = None) -> Path:
+    """Write a .rrd recording of a run (see the module docstring for its contents).
+
+    Parameters
+    ----------
+    twin : TwinModel (not modified)
+    trajectory : what to simulate (ignored when ``sim_report`` is given)
+    out_rrd : path of the recording (written atomically)
+    sim_report : a finished simulation with its record; default: simulate ``trajectory``
+        with ``faults`` and ``sim_settings`` (:func:`twin.sim.simulate`)
+    settings : RecordSettings
+
+    Returns
+    -------
+    Path of the recording.
+    """
+    settings = settings or RecordSettings()
+    if sim_report is None:
+        if trajectory is None:
+            raise RecordError("record_run needs a trajectory or a simulation report")
+        sim_report = simulate(twin, trajectory, faults, sim_settings, record=True)
+    rec_data = sim_report.record
+    if rec_data is None or rec_data.times.size == 0:
+        raise RecordError("the simulation report has no sampled record; allowed: a report from "
+                          "simulate(..., record=True)")
+    out = Path(out_rrd)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.stem}.", suffix=".tmp.rrd")
+        os.close(fd)
+    except OSError as exc:
+        raise RecordError(f"{out}: cannot write here ({exc.strerror}); allowed: a path in a "
+                          "writable folder") from None
+    rec = rr.RecordingStream(APPLICATION_ID, send_properties=False)
+    try:
+        rec.save(tmp)
+        _log_run(rec, twin, sim_report, settings)
+        rec.flush()
+        rec.disconnect()
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, out)
+    except BaseException:
+        try:
+            rec.disconnect()
+        finally:
+            Path(tmp).unlink(missing_ok=True)
+        raise
+    return out
+
+
+def _log_run(rec: rr.RecordingStream, twin: TwinModel, report: SimReport,
+             settings: RecordSettings) -> None:
+    m = twin.model
+    idx = twin.index
+    geometry = twin.geometry
+    record = report.record
+    n = idx.n_robots
+    # samples to log
+    times = np.asarray(record.times, float)
+    angles = np.asarray(record.angles, float)
+    if settings.dt_s is not None and times.size > 1:
+        step = max(1, int(round(settings.dt_s / float(np.median(np.diff(times))))))
+        sel = np.arange(0, times.size, step)
+        if sel[-1] != times.size - 1:
+            sel = np.append(sel, times.size - 1)
+        times, angles = times[sel], angles[sel]
+    T = times.size
+
+    rec.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+    rec.log("summary", rr.TextDocument(_summary_markdown(report),
+                                       media_type=rr.MediaType.MARKDOWN), static=True)
+
+    # kinematics at every sample: link poses (relative to the parent link) and fiber tips
+    d = mujoco.MjData(m)
+    fibers = idx.fiber_names
+    trace = fibers if settings.trace_fibers is None else tuple(settings.trace_fibers)
+    unknown = [f for f in trace if f not in fibers]
+    if unknown:
+        raise RecordError(f"field 'trace_fibers' = {unknown}; allowed: {', '.join(fibers)}")
+    trace_cols = [fibers.index(f) for f in trace]
+    q_alpha = np.empty((T, n, 4))
+    q_beta = np.empty((T, n, 4))
+    tips = np.empty((T, n, len(trace_cols), 3))
+    qadr = idx.qpos_adr.ravel()
+    sites = idx.fiber_site[:, trace_cols]
+    for k in range(T):
+        d.qpos[qadr] = np.radians(angles[k]).ravel()
+        mujoco.mj_kinematics(m, d)
+        q_alpha[k] = d.xquat[idx.alpha_body]
+        q_beta[k] = d.xquat[idx.beta_body]
+        tips[k] = d.site_xpos[sites]
+    q_base = d.xquat[idx.base_body].copy()
+    # link frames relative to their parents: alpha in the robot frame, beta in alpha's
+    rel_alpha = _quat_mul(_quat_conj(q_base)[None], q_alpha)
+    rel_beta = _quat_mul(_quat_conj(q_alpha), q_beta)
+    t_alpha = np.asarray(m.body_pos)[idx.alpha_body]  # constant offsets from the parent
+    t_beta = np.asarray(m.body_pos)[idx.beta_body]
+
+    # static: robot frames, meshes, fibers in the beta frame
+    meshes = geometry.link_meshes("visual")
+    fiber_local = np.asarray(m.site_pos)[idx.fiber_site]  # (n, k, 3) in the beta body frame
+    fiber_colors = [_rgba8(FIBER_RGBA.get(f, DEFAULT_FIBER_RGBA)) for f in fibers]
+    mesh_arch = {name: _mesh3d(meshes[name], RGBA[name]) for name in ("body", "alpha", "beta")}
+    for k, rid in enumerate(idx.robot_ids):
+        root = f"robots/{int(rid)}"
+        rec.log(root, rr.Transform3D(translation=d.xpos[idx.base_body[k]],
+                                     quaternion=_xyzw(q_base[k])), static=True)
+        for name, path in (("body", "body"), ("alpha", "alpha"), ("beta", "alpha/beta")):
+            rec.log(f"{root}/{path}", mesh_arch[name], static=True)
+        rec.log(f"{root}/alpha/beta/fibers", rr.Points3D(fiber_local[k], radii=FIBER_RADIUS_MM,
+                                                         colors=fiber_colors,
+                                                         labels=list(fibers)), static=True)
+    if idx.fiducial_ids.size:
+        fid_arch = _mesh3d(meshes["fiducial"], RGBA["fiducial"])
+        for j, fid in enumerate(idx.fiducial_ids):
+            path = f"fiducials/{int(fid)}"
+            rec.log(path, fid_arch, static=True)
+            rec.log(path, rr.Transform3D(translation=d.xpos[idx.fiducial_body[j]],
+                                         quaternion=_xyzw(d.xquat[idx.fiducial_body[j]])),
+                    static=True)
+    plate = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "focal_plate")
+    if plate >= 0:
+        rec.log("plate", rr.Boxes3D(centers=[d.geom_xpos[plate]], half_sizes=[m.geom_size[plate]],
+                                    colors=[_rgba8(RGBA["plate"])],
+                                    fill_mode=rr.components.FillMode.Solid), static=True)
+
+    # poses over time: only samples where the robot moved
+    keep = _changed(angles, POSE_EPS_DEG)
+    for k, rid in enumerate(idx.robot_ids):
+        rows = np.flatnonzero(keep[:, k])
+        tcol = [rr.TimeColumn(TIMELINE, duration=times[rows])]
+        root = f"robots/{int(rid)}"
+        for path, t_rel, q_rel in (("alpha", t_alpha, rel_alpha), ("alpha/beta", t_beta, rel_beta)):
+            rec.send_columns(f"{root}/{path}", indexes=tcol,
+                             columns=rr.Transform3D.columns(
+                                 translation=np.repeat(t_rel[k][None], rows.size, axis=0),
+                                 quaternion=_xyzw(q_rel[rows, k])))
+
+    # fiber traces over the whole run
+    for c, name in enumerate(trace):
+        strips = [_strip(tips[:, k, c]) for k in range(n)]
+        rec.log(f"traces/{name}",
+                rr.LineStrips3D(strips, radii=TRACE_RADIUS_MM,
+                                colors=[_rgba8(FIBER_RGBA.get(name, DEFAULT_FIBER_RGBA))] * n,
+                                labels=[f"r{int(r)}" for r in idx.robot_ids]), static=True)
+
+    if settings.contacts:
+        _log_contacts(rec, report, np.asarray(record.times, float))
+
+
+def _log_contacts(rec: rr.RecordingStream, report: SimReport, grid: np.ndarray) -> None:
+    """Contacts binned on the record time grid: at each grid time with contacts since the
+    previous one, their points; at the next grid time without, an empty set."""
+    c = report.contacts
+    if len(c) == 0 or grid.size == 0:
+        return
+    tc = np.asarray(c.time_s, float)
+    b = np.clip(np.searchsorted(grid, tc - 1e-12, side="left"), 0, grid.size - 1)
+    order = np.argsort(b, kind="stable")
+    b = b[order]
+    pos = np.asarray(c.pos_mm, float)[order]
+    ra, rb, fid = (np.asarray(x)[order] for x in (c.robot_a, c.robot_b, c.fiducial))
+    depth = np.asarray(c.depth_mm, float)[order]
+    labels = [f"r{a}-r{o} {dd:.3f} mm" if o >= 0 else f"r{a}-fid{f} {dd:.3f} mm"
+              for a, o, f, dd in zip(ra.tolist(), rb.tolist(), fid.tolist(), depth.tolist())]
+    bins, counts = np.unique(b, return_counts=True)
+    # add an empty entry after each run of bins with contacts
+    after = bins + 1
+    clear = np.setdiff1d(after[after < grid.size], bins)
+    all_bins = np.concatenate([bins, clear])
+    lengths = np.concatenate([counts, np.zeros(clear.size, dtype=np.int64)])
+    o = np.argsort(all_bins, kind="stable")
+    all_bins, lengths = all_bins[o], lengths[o]
+    # points must be ordered as the partitions: bins with contacts in order, empties take none
+    rec.send_columns(
+        "contacts", indexes=[rr.TimeColumn(TIMELINE, duration=grid[all_bins])],
+        columns=rr.Points3D.columns(positions=pos, radii=np.full(len(pos), CONTACT_RADIUS_MM),
+                                    colors=np.tile(_rgba8(CONTACT_RGBA), (len(pos), 1)),
+                                    labels=labels).partition(lengths))
+
+
+__all__ = ["APPLICATION_ID", "RecordError", "RecordSettings", "TIMELINE", "record_run"]
