@@ -159,8 +159,17 @@ def plan(
     max_steps: Optional[int] = typer.Option(None, help="Step limit [default: 1000 deg / step]."),
     out: Path = typer.Option(Path("out/plan"), help="Output folder (must not exist unless --force)."),
     force: bool = typer.Option(False, help="Replace an existing output folder."),
+    raw: bool = typer.Option(False, help="Write the stepwise paths (constant speed, infinite "
+                             "acceleration) instead of firmware-ready trajectories."),
+    budget: float = typer.Option(0.03, help="Buffer share of smoothing + simplification, mm "
+                                 "(Eq. 12); trajectories are verified at buffer - budget."),
+    max_points: int = typer.Option(1024, help="Most (angle, time) points per axis (firmware)."),
 ) -> None:
-    """Plan a collision-free reconfiguration fold -> targets and write a run folder."""
+    """Plan a collision-free reconfiguration fold -> targets and write a run folder.
+
+    By default the stepwise plan is smoothed, time-parametrised under the spec's speed and
+    acceleration limits (interacting robots share one path parameter), simplified to at most
+    --max-points per axis and verified again at buffer - budget."""
     t_start = time.perf_counter()
     spec = load_spec(preset)
     if buffer is not None:
@@ -202,8 +211,16 @@ def plan(
                                       progress=on_round)
         progress.update(task, completed=settings.max_rounds + 1)
 
-    traj = Trajectory.from_plan(result)
-    check = check_trajectory(traj, spec, lay, spec.buffer_mm)
+    post = None
+    if raw:
+        traj, check_buffer = Trajectory.from_plan(result), spec.buffer_mm
+    else:
+        from planners.postprocess import postprocess
+
+        with err_console.status("smoothing, timing, simplifying, verifying"):
+            traj, post = postprocess(result, geom, budget_mm=budget, max_points=max_points)
+        check_buffer = post.verify_buffer_mm
+    check = check_trajectory(traj, spec, lay, check_buffer)
     m = dict(result.metrics)
     summary = {
         "command": " ".join(["rfp-twin"] + sys.argv[1:]),
@@ -217,6 +234,8 @@ def plan(
         "metrics": m, "duration_s": traj.duration,
         "points_per_axis_median": float(np.median(traj.point_counts())),
         "points_per_axis_max": int(traj.point_counts().max()),
+        "trajectories": "stepwise (raw)" if raw else "firmware-ready (postprocessed)",
+        "postprocess": post.to_dict() if post is not None else None,
         "check2d": check.to_dict(),
         "wall_time_s": time.perf_counter() - t_start,
     }
@@ -378,13 +397,20 @@ def print_summary(summary: dict, out: Path) -> None:
         ("convergence (1st run)", f"{m['convergence']:.4f}"),
         ("targets replaced", str(m["n_replaced"])),
         ("deadlocked", str(m["n_deadlocked"])),
-        ("fold time", f"{m['fold_time_s']:.2f} s"),
+        ("fold time (stepwise)", f"{m['fold_time_s']:.2f} s"),
+        ("trajectory duration", f"{summary['duration_s']:.2f} s ({summary['trajectories']})"),
         ("tau_pg / tau_sr", f"{m['tau_pg_s']:.3f} s / {m['tau_sr_s']:.3f} s"),
         ("points per axis (median / max)",
          f"{summary['points_per_axis_median']:.0f} / {summary['points_per_axis_max']}"),
-        ("2D check", f"{'clear' if c['ok'] else 'COLLISION'}, min clearance "
-                     f"{c['min_clearance_mm']:.4f} mm"),
+        ("2D check", f"{'clear' if c['ok'] else 'COLLISION'} at {c['buffer_mm']:.3f} mm, min "
+                     f"clearance {c['min_clearance_mm']:.4f} mm"),
     ]
+    p = summary.get("postprocess")
+    if p:
+        rows.insert(-1, ("max |v| / |a| (alpha, beta)",
+                         f"{max(p['max_speed_deg_s']):.2f} deg/s / {max(p['max_accel_deg_s2']):.1f} deg/s^2"))
+        rows.insert(-1, ("post-processing", f"{p['stage_seconds'].get('total', 0.0):.2f} s, "
+                                            f"{p['n_groups']} groups (largest {p['largest_group']})"))
     for k, v in rows:
         t.add_row(k, v)
     console.print(t)

@@ -201,3 +201,24 @@ def test_render_and_record_commands(tmp_path):
     assert (tmp_path / "run.rrd").stat().st_size > 10_000
     r = run("render", str(out), "--camera", "sideways", "--out", str(tmp_path / "x.mp4"))
     assert r.returncode == 2 and "camera" in r.stderr and not (tmp_path / "x.mp4").exists()
+
+
+def test_plan_writes_firmware_ready_trajectories_by_default(tmp_path):
+    spec = load_spec("sdss-v")
+    out, raw = tmp_path / "pp", tmp_path / "raw"
+    assert run("plan", "--layout", "hex:37", "--seed", "5", "--out", str(out)).returncode == 0
+    assert run("plan", "--layout", "hex:37", "--seed", "5", "--raw", "--out", str(raw)).returncode == 0
+    s = json.loads((out / "summary.json").read_text())
+    p = s["postprocess"]
+    assert p["verified"] and s["check2d"]["ok"]
+    assert s["check2d"]["buffer_mm"] == pytest.approx(spec.buffer_mm - 0.03)
+    for key in ("duration_s", "max_speed_deg_s", "max_accel_deg_s2", "points_per_axis_max",
+                "stage_seconds"):
+        assert key in p
+    traj = Trajectory.from_json(out / "trajectories.json")
+    assert traj.point_counts().max() <= 1024
+    assert traj.max_speed().max() <= spec.max_speed_deg_s[0] * 1.01
+    stepwise = Trajectory.from_json(raw / "trajectories.json")
+    np.testing.assert_allclose(traj.end(), stepwise.end(), atol=1e-6)
+    np.testing.assert_allclose(traj.start(), stepwise.start(), atol=1e-6)
+    assert json.loads((raw / "summary.json").read_text())["postprocess"] is None

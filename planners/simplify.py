@@ -1,0 +1,143 @@
+"""Ramer-Douglas-Peucker simplification of (time, angle) paths (Sayres 2021 Sect. 6).
+
+The robot firmware takes at most 1024 (angle, time) points per axis and interpolates
+linearly between them. A timed path sampled densely is reduced here to a subset of its
+own samples such that linear interpolation between the kept samples stays within an
+angular tolerance of every dropped sample.
+
+The deviation is measured *vertically* (angle at the same time), not perpendicular to
+the chord as in the textbook RDP: what matters for collisions is where the arm is at a
+given instant. The result keeps the first and last samples, and only original samples,
+so the kinematic bounds of :func:`planners.timing.pl_kinematics` carry over from the
+dense trajectory to the simplified one.
+
+If the tolerance would need more than ``max_points`` points, the tolerance of that axis
+is raised by factors of 1.5 until it fits, and the raised value is reported.
+
+All heavy work is numba ``@njit(cache=True)``; units are seconds and degrees.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from models.errors import SpecError, field_error
+
+__all__ = ["rdp_mask", "simplify_axis", "simplify_columns", "max_deviation"]
+
+#: Factor by which a tolerance is raised when the point budget is exceeded.
+_RAISE = 1.5
+
+
+@njit(cache=True)
+def rdp_mask(t, y, tol, keep):
+    """RDP on one axis: sets ``keep`` (n,) and returns the number of kept points.
+
+    Parameters
+    ----------
+    t : (n,) float64, non-decreasing times
+    y : (n,) float64, angles
+    tol : float, largest allowed vertical deviation of a dropped sample
+    keep : (n,) bool, output
+    """
+    n = t.size
+    keep[:] = False
+    if n == 0:
+        return 0
+    keep[0] = True
+    keep[n - 1] = True
+    if n <= 2:
+        return n
+    stack = np.empty((n, 2), dtype=np.int64)
+    top = 0
+    stack[0, 0] = 0
+    stack[0, 1] = n - 1
+    top = 1
+    count = 2
+    while top > 0:
+        top -= 1
+        i = stack[top, 0]
+        j = stack[top, 1]
+        if j - i < 2:
+            continue
+        dt = t[j] - t[i]
+        dy = y[j] - y[i]
+        best = -1.0
+        idx = -1
+        for k in range(i + 1, j):
+            if dt > 0.0:
+                yk = y[i] + dy * (t[k] - t[i]) / dt
+            else:
+                yk = y[i]
+            d = abs(y[k] - yk)
+            if d > best:
+                best = d
+                idx = k
+        if best > tol:
+            keep[idx] = True
+            count += 1
+            stack[top, 0] = i
+            stack[top, 1] = idx
+            stack[top + 1, 0] = idx
+            stack[top + 1, 1] = j
+            top += 2
+    return count
+
+
+@njit(cache=True)
+def _simplify_columns(t, Y, tol, max_points, keep, tol_used):
+    for c in range(Y.shape[1]):
+        y = np.ascontiguousarray(Y[:, c])
+        tc = tol[c]
+        col = np.empty(t.size, dtype=np.bool_)
+        while True:
+            cnt = rdp_mask(t, y, tc, col)
+            if cnt <= max_points:
+                break
+            tc *= _RAISE
+        keep[:, c] = col
+        tol_used[c] = tc
+
+
+def simplify_axis(t, y, tol: float, max_points: int = 1024):
+    """Simplify one axis: returns (t_kept, y_kept, tolerance_used)."""
+    t = np.ascontiguousarray(t, dtype=np.float64)
+    y = np.ascontiguousarray(y, dtype=np.float64)
+    keep, used = simplify_columns(t, y[:, None], np.array([tol]), max_points)
+    return t[keep[:, 0]], y[keep[:, 0]], float(used[0])
+
+
+def simplify_columns(t, Y, tol, max_points: int = 1024):
+    """Simplify several axes sampled at the same times.
+
+    Parameters
+    ----------
+    t : (S,) times, s
+    Y : (S, J) angles, deg
+    tol : float or (J,) tolerance per column, deg (> 0)
+    max_points : int >= 2, largest number of kept points per column
+
+    Returns
+    -------
+    keep : (S, J) bool
+    tol_used : (J,) tolerance each column needed to fit ``max_points``
+    """
+    t = np.ascontiguousarray(t, dtype=np.float64)
+    Y = np.asarray(Y, dtype=np.float64)
+    if Y.ndim != 2 or Y.shape[0] != t.size:
+        raise ValueError("Y must be (len(t), J)")
+    tol = np.broadcast_to(np.asarray(tol, dtype=np.float64), (Y.shape[1],)).copy()
+    if not np.all(np.isfinite(tol)) or np.any(tol <= 0):
+        raise field_error(SpecError, "tolerance_deg", tol.tolist(), "finite values > 0 deg",
+                          "simplify")
+    if int(max_points) < 2:
+        raise field_error(SpecError, "max_points", max_points, ">= 2", "simplify")
+    keep = np.empty(Y.shape, dtype=np.bool_)
+    used = np.empty(Y.shape[1])
+    _simplify_columns(t, np.ascontiguousarray(Y), tol, int(max_points), keep, used)
+    return keep, used
+
+
+def max_deviation(t_dense, y_dense, t_kept, y_kept) -> float:
+    """Largest |linear interpolation of the kept points - dense samples|, deg."""
+    return float(np.max(np.abs(np.interp(t_dense, t_kept, y_kept) - y_dense))) if len(t_dense) else 0.0

@@ -1,0 +1,158 @@
+"""The post-processing pipeline (planners/postprocess.py), checked numerically.
+
+Every trajectory is checked on its own terms: the firmware's piecewise-linear product
+(slopes, three-point accelerations), its point counts, its distance to the smooth timed
+path it simplifies, its ends, and the independent 2D checker at the stated buffer.
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from models.array import ArrayGeometry
+from models.errors import PlanningError, SpecError
+from models.layout import Layout
+from models.robot import load_spec
+from planners.plan import Plan
+from planners.postprocess import postprocess
+from planners.timing import pl_kinematics
+from planners.trajectory import Trajectory
+from tests.planners.conftest import make_geom, plan_random
+from validation.checker2d import check_trajectory
+
+
+def assert_firmware_ready(traj: Trajectory, rep, plan: Plan, geom: ArrayGeometry,
+                          max_points: int = 1024) -> None:
+    spec = geom.spec
+    # limits, within 1 %, on the piecewise-linear product
+    for ax in range(2):
+        for i in range(traj.n_robots):
+            v, a = pl_kinematics(traj.times[ax][i], traj.angles[ax][i])
+            assert v <= spec.max_speed_deg_s[ax] * 1.01
+            assert a <= spec.max_accel_deg_s2[ax] * 1.01
+    assert max(rep.max_speed_deg_s) <= 30.0 * 1.01 and max(rep.max_accel_deg_s2) <= 45.0 * 1.01
+    # firmware capacity
+    counts = traj.point_counts()
+    assert counts.max() <= max_points and rep.points_per_axis_max == counts.max()
+    # exact ends
+    np.testing.assert_array_equal(traj.start(), plan.start())
+    np.testing.assert_array_equal(traj.end(), plan.end())
+    # within the tolerance of the smooth timed path (plus the dense sampling error
+    # a * sample_s^2 / 8 between samples)
+    t = np.linspace(0.0, traj.duration, 20001)
+    gap = np.abs(traj.sample(t) - rep.timed.sample(t)).max(axis=(0, 2))
+    sampling = max(spec.max_accel_deg_s2) * rep.sample_s**2 / 8
+    assert np.all(gap <= rep.timed.tolerance_deg + sampling + 1e-9)
+    assert np.all(rep.timed.tolerance_deg <= rep.max_tolerance_used_deg + 1e-12)
+    # and collision-free at the planning buffer minus the stated budget
+    assert rep.verified and rep.budget_mm == 0.03
+    assert rep.verify_buffer_mm == pytest.approx(geom.buffer_mm - 0.03)
+    check = check_trajectory(traj, spec, geom.layout, rep.verify_buffer_mm)
+    assert check.ok, check.table()
+    assert check.min_clearance_mm > 0.0
+    assert rep.min_clearance_mm == pytest.approx(check.min_clearance_mm, abs=0.01)
+
+
+@pytest.mark.parametrize("n_positions,buffer_mm,seed", [
+    (37, 1.5, 0),
+    (91, 2.0, 1),
+    (127, 2.5, 2),
+    (169, 2.0, 3),
+    (169, 3.0, 4),
+])
+def test_firmware_ready_and_collision_free(n_positions, buffer_mm, seed):
+    geom = make_geom(n_positions, buffer_mm)
+    _, plan = plan_random(geom, seed, step_deg=0.1)
+    traj, rep = postprocess(plan, geom)
+    assert_firmware_ready(traj, rep, plan, geom)
+    assert rep.duration_s >= plan.n_steps * plan.step_s * 0.9
+    assert rep.points_per_axis_median < 40
+    assert set(rep.stage_seconds) == {"smooth", "group", "time", "simplify", "verify", "total"}
+
+
+def test_production_layout_with_fiducials_and_a_small_point_budget():
+    spec = load_spec("sdss-v-production")
+    lay = Layout.sdss_v_grid(fiducial_ids=(0, 3, 10, 20, 33, 48))
+    geom = ArrayGeometry(spec, lay, 2.0)
+    _, plan = plan_random(geom, 5, step_deg=0.2)
+    traj, rep = postprocess(plan, (spec, lay), 2.0, max_points=12)
+    assert_firmware_ready(traj, rep, plan, geom, max_points=12)
+    assert rep.max_tolerance_used_deg > rep.tolerance_deg       # the budget forced it
+
+
+def test_report_serialises_and_is_deterministic():
+    geom = make_geom(37, 2.0)
+    _, plan = plan_random(geom, 7, step_deg=0.1)
+    a, ra = postprocess(plan, geom)
+    b, rb = postprocess(plan, geom)
+    assert a.to_dict() == b.to_dict()
+    d = json.loads(json.dumps(ra.to_dict()))
+    for key in ("budget_mm", "duration_s", "max_speed_deg_s", "max_accel_deg_s2",
+                "points_per_axis_median", "points_per_axis_max", "n_groups", "largest_group",
+                "stage_seconds", "verified", "retries", "tolerance_deg", "window_steps"):
+        assert key in d
+    assert d["budget_mm"] == 0.03 and d["verified"] is True
+    assert "timed" not in d
+    assert "verified" in ra.table()
+
+
+# -- grouping ---------------------------------------------------------------------------
+def chase_plan() -> tuple[Plan, ArrayGeometry]:
+    """Two robots 22.4 mm apart. B (right) swings its arm from pointing at A (alpha 180)
+    up and away (alpha 60) over 1200 steps; A swings from pointing away (alpha 180) over
+    the top towards B (alpha 0) over 1800 steps, chasing B's arm at the same rate.
+    Clear throughout the plan (0.47 mm at the closest), but only because B keeps ahead."""
+    spec = load_spec("sdss-v")
+    lay = Layout(ids=[1, 2], xy=[[0.0, 0.0], [22.4, 0.0]], kinds=["robot", "robot"], name="pair")
+    geom = ArrayGeometry(spec, lay, 2.0)
+    steps = np.array([0.0, 1800.0, 0.0, 1200.0, 1800.0])
+    angles = np.array([[180.0, 0.0], [0.0, 0.0], [180.0, 0.0], [60.0, 0.0], [60.0, 0.0]])
+    plan = Plan(np.array([1, 2]), 0.1, spec.step_seconds(0.1), 1800, np.array([0, 2, 5]),
+                steps, angles, np.array(["reached"] * 2, dtype=object),
+                np.array([[0.0, 0.0], [60.0, 0.0]]), np.array([[0.0, 0.0], [60.0, 0.0]]))
+    return plan, geom
+
+
+def test_chasing_robots_collide_when_timed_apart_and_not_when_grouped():
+    plan, geom = chase_plan()
+    raw = check_trajectory(Trajectory.from_plan(plan), geom.spec, geom.layout, 2.0)
+    assert raw.ok and 0.3 < raw.min_clearance_mm < 1.0
+    # timed apart (no interaction edges): A's faster, shorter-to-finish motion runs into B
+    apart, rep_apart = postprocess(plan, geom, interaction_mm=0.0, verify=False)
+    assert rep_apart.n_groups == 2
+    hit = check_trajectory(apart, geom.spec, geom.layout, 1.97)
+    assert not hit.ok and hit.min_clearance_mm < -1.0
+    with pytest.raises(PlanningError, match="collision"):
+        postprocess(plan, geom, interaction_mm=0.0, max_retries=0)
+    # grouped (default interaction distance 1 mm): one path parameter, clear at once
+    traj, rep = postprocess(plan, geom)
+    assert rep.n_groups == 1 and rep.largest_group == 2
+    assert rep.merges == 0 and rep.retries == 0
+    assert_firmware_ready(traj, rep, plan, geom)
+    # and the repair loop reaches the same grouping from the split one
+    _, rep_fix = postprocess(plan, geom, interaction_mm=0.0)
+    assert rep_fix.merges == 1 and rep_fix.largest_group == 2 and rep_fix.verified
+
+
+# -- arguments ----------------------------------------------------------------------------
+@pytest.mark.parametrize("kwargs,field", [
+    ({"budget_mm": 2.5}, "budget_mm"),
+    ({"max_points": 1}, "max_points"),
+    ({"tolerance_deg": 0.0}, "tolerance_deg"),
+    ({"smoothing": "savgol"}, "smoothing"),
+    ({"align": "middle"}, "align"),
+    ({"backend": "ruckig"}, "backend"),
+    ({"sample_s": 0.0}, "sample_s"),
+])
+def test_bad_arguments_name_the_field(kwargs, field):
+    plan, geom = chase_plan()
+    with pytest.raises(SpecError, match=field):
+        postprocess(plan, geom, **kwargs)
+
+
+def test_plan_must_match_the_layout():
+    plan, _ = chase_plan()
+    with pytest.raises(SpecError, match="robot_ids"):
+        postprocess(plan, make_geom(37, 2.0))

@@ -1,0 +1,77 @@
+"""Ramer-Douglas-Peucker on (time, angle) axes (planners/simplify.py)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from models.errors import SpecError
+from planners.simplify import max_deviation, rdp_mask, simplify_axis, simplify_columns
+from planners.timing import pl_kinematics
+
+
+def test_straight_line_keeps_its_two_ends():
+    t = np.linspace(0, 2, 201)
+    tt, yy, used = simplify_axis(t, 3.0 + 12.5 * t, 1e-6)
+    assert tt.tolist() == [0.0, 2.0] and yy.tolist() == [3.0, 28.0] and used == 1e-6
+
+
+def test_deviation_is_vertical_not_perpendicular():
+    # a steep ramp with one bump: the bump is 0.5 deg high at the same time, although
+    # its perpendicular distance to the chord is tiny (slope 1000 deg/s)
+    t = np.array([0.0, 0.5, 1.0])
+    y = np.array([0.0, 500.5, 1000.0])
+    keep = np.empty(3, dtype=np.bool_)
+    assert rdp_mask(t, y, 0.4, keep) == 3
+    assert rdp_mask(t, y, 0.6, keep) == 2
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_kept_points_are_samples_within_tolerance(seed):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.001, 0.02, 3000))
+    Y = np.cumsum(rng.normal(size=(3000, 3)), axis=0) * 0.05
+    tol = np.array([0.01, 0.1, 0.5])
+    keep, used = simplify_columns(t, Y, tol, 3000)
+    np.testing.assert_array_equal(used, tol)
+    for c in range(3):
+        m = keep[:, c]
+        assert m[0] and m[-1]
+        assert max_deviation(t, Y[:, c], t[m], Y[m, c]) <= tol[c] + 1e-12
+    counts = keep.sum(axis=0)
+    assert counts[0] > counts[1] > counts[2] >= 2
+
+
+def test_point_budget_raises_the_tolerance_and_says_so():
+    t = np.linspace(0, 10, 5001)
+    y = 20 * np.sin(3 * t)
+    keep, used = simplify_columns(t, y[:, None], 1e-4, max_points=16)
+    assert keep.sum() <= 16
+    assert used[0] > 1e-4
+    assert max_deviation(t, y, t[keep[:, 0]], y[keep[:, 0]]) <= used[0] + 1e-12
+
+
+def test_any_subset_of_exact_samples_stays_within_limits():
+    """Slopes and three-point accelerations of kept samples of a trajectory within
+    (v, a) stay within (v, a): the reason RDP cannot break the limits."""
+    v, a = 30.0, 45.0
+    ta = v / a                                        # trapezoid: accelerate, cruise, brake
+    T = 4.0
+    t = np.linspace(0, T, 4001)
+    q = np.where(t < ta, 0.5 * a * t**2,
+                 np.where(t < T - ta, 0.5 * a * ta**2 + v * (t - ta),
+                          v * (T - ta) - 0.5 * a * (T - t) ** 2))
+    for tol in (1e-3, 0.01, 0.1, 1.0):
+        tt, yy, _ = simplify_axis(t, q, tol)
+        vm, am = pl_kinematics(tt, yy)
+        assert vm <= v * (1 + 1e-9) and am <= a * (1 + 1e-6)
+    assert simplify_axis(t, q, 0.1)[0].size < 30
+
+
+def test_bad_arguments():
+    t = np.linspace(0, 1, 5)
+    with pytest.raises(SpecError, match="tolerance_deg"):
+        simplify_columns(t, np.zeros((5, 1)), 0.0)
+    with pytest.raises(SpecError, match="max_points"):
+        simplify_columns(t, np.zeros((5, 1)), 0.1, max_points=1)
+    with pytest.raises(ValueError):
+        simplify_columns(t, np.zeros((4, 1)), 0.1)
