@@ -255,6 +255,9 @@ def plan(
 
 model_app = typer.Typer(no_args_is_help=True, help="The MuJoCo model of an array.")
 app.add_typer(model_app, name="model")
+from twin.study_cli import study_app  # noqa: E402  (a sub-app: `rfp-twin study ...`)
+
+app.add_typer(study_app, name="study")
 
 
 @model_app.command("export")

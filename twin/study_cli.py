@@ -1,0 +1,151 @@
+"""`rfp-twin study ...`: run design studies on Dask and report them.
+
+A typer sub-app; ``twin/cli.py`` mounts it as ``rfp-twin study``. It also runs alone:
+``python -m twin.study_cli run sim1-small``.
+
+Commands
+--------
+run FILE      run (or resume) a study: FILE is a study TOML or a shipped study name
+report DIR    markdown + figures for a study folder
+list          the shipped studies
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from models.errors import RfpError
+from twin.studies import (default_out_dir, list_studies, load_study, machine_workers,
+                          run_study)
+
+study_app = typer.Typer(add_completion=False, no_args_is_help=True,
+                        pretty_exceptions_enable=False,
+                        help="Design studies: thousands of simulated reconfigurations on Dask, "
+                             "stored as Parquet, reported as figures.")
+console = Console()
+err_console = Console(stderr=True)
+
+#: Exit codes (as twin/cli.py): 2 bad input; 3 the run stopped before every trial was done;
+#: 4 the 2D checker found collisions in some trial; 130 interrupted.
+EXIT_BAD_INPUT = 2
+EXIT_INCOMPLETE = 3
+EXIT_COLLISION = 4
+EXIT_INTERRUPTED = 130
+
+
+@study_app.command("run")
+def run(
+    file: str = typer.Argument(..., help="Study TOML file, or a shipped study name "
+                               "(see `rfp-twin study list`)."),
+    scheduler: Optional[str] = typer.Option(
+        None, help="Address of a running Dask scheduler, e.g. tcp://HOST:8786 (a SLURM cluster "
+                   "via dask-jobqueue: see twin/studies.py) (default: a LocalCluster here)."),
+    workers: Optional[int] = typer.Option(
+        None, help=f"LocalCluster worker processes (default: cores here = {machine_workers()})."),
+    out: Optional[Path] = typer.Option(None, help="Study folder (default: out/studies/<name>)."),
+    trials: Optional[int] = typer.Option(None, help="Trials per grid point instead of the "
+                                         "file's (a larger value later extends the same study)."),
+    max_trials: Optional[int] = typer.Option(None, help="Stop after this many new trials "
+                                             "(run again to go on)."),
+    threads: bool = typer.Option(False, "--threads", help="LocalCluster workers as threads of "
+                                 "this process (no parallel speed-up of the numba kernels)."),
+    report: bool = typer.Option(False, "--report", help="Write the report when the run ends."),
+) -> None:
+    """Run a study; trials already in the study folder are skipped (resume)."""
+    study = load_study(file)
+    if scheduler is not None and workers is not None:
+        err_console.print("note: --workers applies to a LocalCluster only; the scheduler's "
+                          "workers are used", highlight=False)
+        workers = None
+    out_dir = out if out is not None else default_out_dir(study)
+    n_total = study.trials * len(study.points) if trials is None else trials * len(study.points)
+    err_console.print(f"study [bold]{study.name}[/]: {len(study.points)} grid points x "
+                      f"{trials or study.trials} trials = {n_total} trials -> {out_dir}",
+                      highlight=False)
+    try:
+        s = run_study(study, out_dir, scheduler=scheduler, workers=workers,
+                      processes=not threads, trials=trials, max_trials=max_trials,
+                      console=err_console)
+    except KeyboardInterrupt:
+        err_console.print(f"interrupted: finished trials are saved in {out_dir}/results; run the "
+                          "same command again to resume", highlight=False)
+        raise typer.Exit(EXIT_INTERRUPTED)
+    t = Table(title=f"rfp-twin study {study.name} -> {out_dir}")
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    for k, v in (("trials in study", str(s.n_total)),
+                 ("already done before this run", str(s.n_before)),
+                 ("run now", str(s.n_run)),
+                 ("failed trials (status error)", str(s.n_errors)),
+                 ("trials with collisions (2D check)", str(s.n_collisions)),
+                 ("cluster", f"{s.scheduler}, {s.workers} worker threads"),
+                 ("start-up + resume scan", f"{s.setup_s:.1f} s"),
+                 ("run time", f"{s.seconds:.1f} s"),
+                 ("throughput", f"{s.rate_per_min:.1f} trials/min")):
+        t.add_row(k, v)
+    console.print(t)
+    if report:
+        _report(out_dir, None, False)
+    if s.n_collisions:
+        err_console.print(f"[red]error:[/] the 2D checker found collisions in {s.n_collisions} "
+                          "trial(s); see the 'collisions' column", highlight=False)
+        raise typer.Exit(EXIT_COLLISION)
+    if not s.complete:
+        err_console.print(f"{s.n_total - s.n_before - s.n_run} trial(s) left; run again to go on",
+                          highlight=False)
+        raise typer.Exit(EXIT_INCOMPLETE)
+
+
+def _report(study_dir: Path, out: Optional[Path], all_points: bool) -> None:
+    from twin.study_report import write_report
+
+    rep = write_report(study_dir, out, all_points=all_points)
+    console.print(f"report: {rep.markdown}")
+    for f in rep.figures:
+        console.print(f"  figure: {f}")
+    for name, why in rep.skipped.items():
+        console.print(f"  not drawn: {name} ({why})", highlight=False)
+    for name, ok in rep.trends.items():
+        console.print(f"  trend {name}: {'yes' if ok else 'NO'}", highlight=False)
+
+
+@study_app.command("report")
+def report(
+    study_dir: Path = typer.Argument(..., help="Study folder written by `rfp-twin study run`."),
+    out: Optional[Path] = typer.Option(None, help="Report folder (default: DIR/report)."),
+    all_points: bool = typer.Option(False, "--all-points", help="Include rows of grid points "
+                                    "no longer in the folder's study.toml."),
+) -> None:
+    """Write report.md and the figures (Sayres 2021 Figs. 10-18 style, feasibility map)."""
+    _report(study_dir, out, all_points)
+
+
+@study_app.command("list")
+def list_cmd() -> None:
+    """List the studies shipped with rfp-twin."""
+    t = Table(title="shipped studies (twin/study_files/*.toml)")
+    for c in ("name", "points", "trials/point", "trials", "description"):
+        t.add_column(c)
+    for name in list_studies():
+        s = load_study(name)
+        t.add_row(name, str(len(s.points)), str(s.trials), str(s.n_trials), s.description)
+    console.print(t)
+
+
+def main() -> None:
+    """Run the sub-app alone (``python -m twin.study_cli``) with one-line errors."""
+    try:
+        study_app()
+    except RfpError as exc:
+        err_console.print(f"[red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
+        sys.exit(EXIT_BAD_INPUT)
+
+
+if __name__ == "__main__":
+    main()
