@@ -260,6 +260,20 @@ def test_partial_runs_duplicates_and_compaction(tmp_path):
     assert s.n_before == 8 and s.n_run == 4 and read_results(out).num_rows == 12
 
 
+def test_runs_on_an_existing_scheduler(tmp_path):
+    """--scheduler ADDR: the same study on a cluster started elsewhere (here: in-process)."""
+    from distributed import LocalCluster
+
+    study = _study(TINY.replace("trials = 2", "trials = 1"), tmp_path)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster:
+        s = run_study(study, tmp_path / "out", scheduler=cluster.scheduler_address,
+                      progress=False)
+        assert s.complete and s.n_run == 4 and s.scheduler == cluster.scheduler_address
+        assert cluster.scheduler.workers  # still up: run_study does not close it
+    assert read_results(tmp_path / "out").num_rows == 4
+
+
 def test_one_writer_per_study_folder(tmp_path):
     study = _study(TINY, tmp_path)
     results = tmp_path / "out" / RESULTS
