@@ -39,7 +39,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import shlex
 import sys
 import time
 from dataclasses import dataclass, field
@@ -55,6 +54,7 @@ from models.robot import load_spec
 from planners.solver import PlannerSettings, plan_reconfiguration
 from planners.stepwise import max_displacement
 from planners.targets import random_targets
+from bench_common import cpu_model, load_average, command_line  # noqa: E402
 
 console = Console()
 if not console.is_terminal or console.width < 160:
@@ -90,20 +90,9 @@ ALG_LABEL = {"greedy": "GC", "markov": "MC"}
 
 # --- helpers ------------------------------------------------------------------------
 def machine_info() -> dict:
-    cpu = "unknown"
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
+    cpu = cpu_model()
     import numba
-    try:
-        load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        load = "n/a"
+    load = load_average()
     return {"nproc": os.cpu_count(), "cpu": cpu, "python": platform.python_version(),
             "numpy": np.__version__, "numba": numba.__version__, "load": load,
             "date": time.strftime("%Y-%m-%d %H:%M:%S %Z")}
@@ -125,11 +114,6 @@ def source_fingerprint() -> tuple[str, str]:
         newest = max(newest, f.stat().st_mtime)
     stamp = time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime(newest)) + " UTC" if files else "n/a"
     return h.hexdigest()[:12], stamp
-
-
-def command_line() -> str:
-    exe = os.path.relpath(sys.executable) if sys.executable.startswith(os.getcwd()) else sys.executable
-    return " ".join(shlex.quote(a) for a in [exe, *sys.argv])
 
 
 def draw_targets(geom: ArrayGeometry, step_deg: float, rng: np.random.Generator) -> np.ndarray:

@@ -33,7 +33,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import shlex
 import sys
 import time
 from pathlib import Path
@@ -53,6 +52,7 @@ from planners.solver import PlannerSettings, plan_reconfiguration  # noqa: E402
 from planners.stepwise import max_displacement  # noqa: E402
 from planners.targets import random_targets  # noqa: E402
 from planners.timing import interaction_groups, interaction_pairs, time_group  # noqa: E402
+from bench_common import cpu_model, load_average, command_line  # noqa: E402
 
 TARGET_S = 3.0
 PAPER_GC_FOLD_S = 12.55          # Sayres 2021 Table 3, GC, 2.5 mm, 0.25 deg, 547 robots
@@ -61,28 +61,12 @@ STAGES = ("smooth", "group", "time", "simplify", "verify", "total")
 
 
 def machine_info() -> str:
-    cpu = "unknown"
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
+    cpu = cpu_model()
     import numba
-    try:
-        load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        load = "n/a"
+    load = load_average()
     return (f"{os.cpu_count()} cores, {cpu}; Python {platform.python_version()}, numpy "
             f"{np.__version__}, numba {numba.__version__}; load {load}; "
             f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}")
-
-
-def command_line() -> str:
-    exe = os.path.relpath(sys.executable) if sys.executable.startswith(os.getcwd()) else sys.executable
-    return " ".join(shlex.quote(a) for a in [exe, *sys.argv])
 
 
 def make_plan(geom: ArrayGeometry, seed: int, step_deg: float):

@@ -28,7 +28,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import shlex
 import sys
 import tempfile
 import time
@@ -51,18 +50,11 @@ from twin.record import record_run  # noqa: E402
 from twin.render import (FrameRenderer, RenderSettings, frame_timeline, render_run,  # noqa: E402
                          save_png)
 from twin.sim import SimSettings, simulate  # noqa: E402
+from bench_common import command_line, cpu_model  # noqa: E402
 
 
 def machine_info() -> str:
-    cpu = "unknown"
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
+    cpu = cpu_model()
     return (f"{cpu}, {os.cpu_count()} cores (load {load()}), Python {platform.python_version()}, "
             f"mujoco {mujoco.__version__}, numpy {np.__version__}, "
             f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}")
@@ -73,11 +65,6 @@ def load() -> str:
         return " / ".join(f"{x:.2f}" for x in os.getloadavg())
     except OSError:
         return "n/a"
-
-
-def command_line() -> str:
-    exe = os.path.relpath(sys.executable) if sys.executable.startswith(os.getcwd()) else sys.executable
-    return " ".join(shlex.quote(a) for a in [exe, *sys.argv])
 
 
 def time_frames(fr: FrameRenderer, angles: np.ndarray, states: np.ndarray) -> tuple[float, float]:

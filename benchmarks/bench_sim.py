@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import shlex
 import sys
 import time
 from pathlib import Path
@@ -41,30 +40,15 @@ from models.mjcf import ModelOptions, build_model  # noqa: E402
 from planners.trajectory import Trajectory  # noqa: E402
 from tests.planners.conftest import make_geom, plan_random  # noqa: E402
 from twin.sim import SimSettings, simulate  # noqa: E402
+from bench_common import cpu_model, load_average, command_line  # noqa: E402
 
 
 def machine_info() -> str:
-    cpu = "unknown"
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    try:
-        load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        load = "n/a"
+    cpu = cpu_model()
+    load = load_average()
     return (f"{cpu}, {os.cpu_count()} cores (load {load}), Python {platform.python_version()}, "
             f"mujoco {mujoco.__version__}, numpy {np.__version__}, "
             f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}")
-
-
-def command_line() -> str:
-    exe = os.path.relpath(sys.executable) if sys.executable.startswith(os.getcwd()) else sys.executable
-    return " ".join(shlex.quote(a) for a in [exe, *sys.argv])
 
 
 def main() -> int:

@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import shlex
 import shutil
 import sys
 import tempfile
@@ -34,21 +33,14 @@ sys.path.insert(0, str(ROOT))
 
 from twin.studies import load_study, read_results, run_study  # noqa: E402
 from twin.study_report import write_report  # noqa: E402
+from bench_common import command_line, cpu_model  # noqa: E402
 
 DETERMINISTIC = ("status", "efficiency", "convergence", "fold_time_s", "n_replaced",
                  "n_deadlocked", "rounds", "n_steps", "collisions")
 
 
 def machine_info() -> dict:
-    cpu = "unknown"
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
+    cpu = cpu_model()
     import dask
     import distributed
     import numba
@@ -65,11 +57,6 @@ def load() -> str:
         return " / ".join(f"{x:.2f}" for x in os.getloadavg())
     except OSError:
         return "n/a"
-
-
-def command_line() -> str:
-    exe = os.path.relpath(sys.executable) if sys.executable.startswith(os.getcwd()) else sys.executable
-    return " ".join(shlex.quote(a) for a in [exe, *sys.argv])
 
 
 def main(argv=None) -> int:
