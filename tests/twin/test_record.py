@@ -14,15 +14,11 @@ import numpy as np
 import pytest
 from rerun.chunk import RrdReader
 
-from models.layout import Layout
-from models.mjcf import build_model
-from models.robot import load_spec
 from planners.trajectory import Trajectory
 from twin.record import RecordError, RecordSettings, record_run
-from twin.run_dir import LAYOUT, ROBOT, TRAJECTORIES, TRAJECTORIES_TO_FOLD, spec_to_toml
 from twin.sim import simulate
+from tests.twin.builders import centre_robot as _centre, moves_trajectory as _moves
 
-FOLD = (10.0, 170.0)
 
 
 def rerun_cli() -> str:
@@ -50,27 +46,6 @@ def chunks_by_entity(path: Path) -> dict[str, list]:
 
 def rows(chunks, static: bool | None = None) -> int:
     return sum(c.num_rows for c in chunks if static is None or c.is_static == static)
-
-
-@pytest.fixture(scope="module")
-def twin7():
-    spec = load_spec("sdss-v")
-    return build_model(spec, Layout.hex_grid(1, spec.pitch_mm))
-
-
-def _centre(layout: Layout) -> int:
-    return int(layout.robot_ids[np.argmin(np.hypot(*layout.robot_xy.T))])
-
-
-def _moves(layout: Layout, moves: dict) -> Trajectory:
-    ta, aa, tb, ab = [], [], [], []
-    for rid in layout.robot_ids:
-        t, a, b = moves.get(int(rid), ([0.0], [FOLD[0]], [FOLD[1]]))
-        ta.append(t)
-        aa.append(a)
-        tb.append(t)
-        ab.append(b)
-    return Trajectory.from_breakpoints(layout.robot_ids, ta, aa, tb, ab)
 
 
 @pytest.fixture(scope="module")

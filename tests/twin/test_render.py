@@ -16,37 +16,12 @@ import numpy as np
 import pytest
 
 import twin.render as render  # first: picks MUJOCO_GL before mujoco is imported here
-from models.layout import Layout
-from models.mjcf import build_model
-from models.robot import load_spec
-from planners.trajectory import Trajectory
 from twin.render import (ARRIVED, CONTACT, MOVING, WAITING, FrameRenderer, RenderError,
                          RenderSettings, frame_timeline, frame_times, render_frame, render_run)
 from twin.sim import simulate
+from tests.twin.builders import centre_robot as _centre, moves_trajectory as _moves
 
 ROOT = Path(__file__).resolve().parents[2]
-FOLD = (10.0, 170.0)
-
-
-@pytest.fixture(scope="module")
-def twin7():
-    spec = load_spec("sdss-v")
-    return build_model(spec, Layout.hex_grid(1, spec.pitch_mm))
-
-
-def _centre(layout: Layout) -> int:
-    return int(layout.robot_ids[np.argmin(np.hypot(*layout.robot_xy.T))])
-
-
-def _moves(layout: Layout, moves: dict) -> Trajectory:
-    ta, aa, tb, ab = [], [], [], []
-    for rid in layout.robot_ids:
-        t, a, b = moves.get(int(rid), ([0.0], [FOLD[0]], [FOLD[1]]))
-        ta.append(t)
-        aa.append(a)
-        tb.append(t)
-        ab.append(b)
-    return Trajectory.from_breakpoints(layout.robot_ids, ta, aa, tb, ab)
 
 
 @pytest.fixture(scope="module")

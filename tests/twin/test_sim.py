@@ -19,30 +19,8 @@ from models.robot import load_spec
 from planners.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random
 from twin.sim import EncoderOffset, SimSettings, Simulator, Slow, Stuck, simulate
+from tests.twin.builders import centre_robot as _centre, moves_trajectory as _moves
 
-FOLD = (10.0, 170.0)
-
-
-@pytest.fixture(scope="module")
-def twin7():
-    spec = load_spec("sdss-v")
-    return build_model(spec, Layout.hex_grid(1, spec.pitch_mm))
-
-
-def _moves(layout: Layout, moves: dict) -> Trajectory:
-    """Everyone holds the fold except ``moves``: id -> (times, alpha list, beta list)."""
-    ta, aa, tb, ab = [], [], [], []
-    for rid in layout.robot_ids:
-        t, a, b = moves.get(int(rid), ([0.0], [FOLD[0]], [FOLD[1]]))
-        ta.append(t)
-        aa.append(a)
-        tb.append(t)
-        ab.append(b)
-    return Trajectory.from_breakpoints(layout.robot_ids, ta, aa, tb, ab)
-
-
-def _centre(layout: Layout) -> int:
-    return int(layout.robot_ids[np.argmin(np.hypot(*layout.robot_xy.T))])
 
 
 def test_checked_collision_free_plan_makes_no_contact():
