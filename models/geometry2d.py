@@ -18,31 +18,30 @@ DEG = math.pi / 180.0
 
 
 @njit(cache=True, inline="always")
-def segment_distance(ax, ay, bx, by, cx, cy, dx, dy):
-    """Minimum distance between segments AB and CD in the plane, mm.
-
-    Exact for all cases (crossing, parallel, degenerate). Scalars in, scalar out.
-    """
-    # crossing segments have distance zero
+def _segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
+    """True when segments AB and CD properly cross (each separates the other's ends)."""
     d1 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
     d2 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
     d3 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
     d4 = (bx - ax) * (dy - ay) - (by - ay) * (dx - ax)
-    if ((d1 > 0.0 and d2 < 0.0) or (d1 < 0.0 and d2 > 0.0)) and \
-            ((d3 > 0.0 and d4 < 0.0) or (d3 < 0.0 and d4 > 0.0)):
+    return ((d1 > 0.0 and d2 < 0.0) or (d1 < 0.0 and d2 > 0.0)) and \
+        ((d3 > 0.0 and d4 < 0.0) or (d3 < 0.0 and d4 > 0.0))
+
+
+@njit(cache=True, inline="always")
+def segment_distance(ax, ay, bx, by, cx, cy, dx, dy):
+    """Minimum distance between segments AB and CD in the plane, mm.
+
+    Exact for all cases (crossing, parallel, degenerate). Scalars in, scalar out.
+    Crossing segments are 0 apart; otherwise the minimum is reached at an endpoint of
+    one of the segments.
+    """
+    if _segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
         return 0.0
-    # otherwise the minimum is reached at an endpoint of one of the segments
-    best = point_segment_distance(ax, ay, cx, cy, dx, dy)
-    v = point_segment_distance(bx, by, cx, cy, dx, dy)
-    if v < best:
-        best = v
-    v = point_segment_distance(cx, cy, ax, ay, bx, by)
-    if v < best:
-        best = v
-    v = point_segment_distance(dx, dy, ax, ay, bx, by)
-    if v < best:
-        best = v
-    return best
+    return math.sqrt(min(_point_segment_sq(ax, ay, cx, cy, dx, dy),
+                         _point_segment_sq(bx, by, cx, cy, dx, dy),
+                         _point_segment_sq(cx, cy, ax, ay, bx, by),
+                         _point_segment_sq(dx, dy, ax, ay, bx, by)))
 
 
 @njit(cache=True, inline="always")
@@ -62,12 +61,7 @@ def _point_segment_sq(px, py, ax, ay, bx, by):
 @njit(cache=True, inline="always")
 def segments_within(ax, ay, bx, by, cx, cy, dx, dy, r):
     """True when segments AB and CD are at most r apart (no square roots)."""
-    d1 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
-    d2 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
-    d3 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-    d4 = (bx - ax) * (dy - ay) - (by - ay) * (dx - ax)
-    if ((d1 > 0.0 and d2 < 0.0) or (d1 < 0.0 and d2 > 0.0)) and \
-            ((d3 > 0.0 and d4 < 0.0) or (d3 < 0.0 and d4 > 0.0)):
+    if _segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
         return True
     r2 = r * r
     return (_point_segment_sq(ax, ay, cx, cy, dx, dy) <= r2
@@ -114,19 +108,7 @@ def segment_closest(ax, ay, bx, by, cx, cy, dx, dy):
 @njit(cache=True, inline="always")
 def point_segment_distance(px, py, ax, ay, bx, by):
     """Distance from point P to segment AB, mm."""
-    ux = bx - ax
-    uy = by - ay
-    den = ux * ux + uy * uy
-    t = 0.0
-    if den > 0.0:
-        t = ((px - ax) * ux + (py - ay) * uy) / den
-        if t < 0.0:
-            t = 0.0
-        elif t > 1.0:
-            t = 1.0
-    ex = ax + t * ux - px
-    ey = ay + t * uy - py
-    return math.sqrt(ex * ex + ey * ey)
+    return math.sqrt(_point_segment_sq(px, py, ax, ay, bx, by))
 
 
 @njit(cache=True, inline="always")
