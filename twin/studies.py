@@ -466,18 +466,35 @@ def parse_study(text: str, source: str = "<study>", base_dir: str | Path | None 
                  batch=batch, grid=grid, points=tuple(points), source=source, text=text)
 
 
+#: Numeric grid keys: (low, high, low excluded, integer); None = unbounded.
+_NUMERIC = {
+    "fold_alpha_deg": (None, None, False, False), "fold_beta_deg": (None, None, False, False),
+    "pitch_mm": (0.0, None, True, False), "alpha_length_mm": (0.0, None, True, False),
+    "beta_length_mm": (0.0, None, True, False), "buffer_mm": (0.0, None, True, False),
+    "segment_end_mm": (0.0, None, False, False), "step_deg": (0.001, 10.0, False, False),
+    "greed": (0.0, 1.0, False, False), "phobia": (0.0, 1.0, False, False),
+    "max_rounds": (0, None, False, True), "max_steps": (1, None, False, True),
+}
+
+
 def _check_value(source: str, key: str, v):
     """Validate one grid value on its own; returns it normalised."""
     where = f"grid.{key}"
     allowed = GRID_KEYS[key]
     if v is None:
         return None
+    if key in _NUMERIC:
+        lo, hi, lo_open, integer = _NUMERIC[key]
+        ok = _is_int(v) if integer else _is_num(v)
+        if ok and lo is not None:
+            ok = v > lo if lo_open else v >= lo
+        if ok and hi is not None:
+            ok = v <= hi
+        if not ok:
+            raise _bad(source, where, v, allowed)
+        return int(v) if integer else float(v)
     if key == "preset":
         if not isinstance(v, str) or not v:
-            raise _bad(source, where, v, allowed)
-        return v
-    if key == "layout":
-        if v not in LAYOUTS:
             raise _bad(source, where, v, allowed)
         return v
     if key == "n_robots":
@@ -487,48 +504,15 @@ def _check_value(source: str, key: str, v):
             near = ", ".join(map(str, _nearest_hex_counts(v)))
             raise _bad(source, where, v, f"{allowed}; nearest: {near}")
         return int(v)
-    if key in ("fold_alpha_deg", "fold_beta_deg"):
-        if not _is_num(v):
-            raise _bad(source, where, v, allowed)
-        return float(v)
-    if key in ("pitch_mm", "alpha_length_mm", "beta_length_mm", "buffer_mm"):
-        if not _is_num(v) or v <= 0:
-            raise _bad(source, where, v, allowed)
-        return float(v)
-    if key == "segment_end_mm":
-        if not _is_num(v) or v < 0:
-            raise _bad(source, where, v, allowed)
-        return float(v)
-    if key == "step_deg":
-        if not _is_num(v) or not 0.001 <= v <= 10.0:
-            raise _bad(source, where, v, allowed)
-        return float(v)
     if key == "algorithm":
         a = ALGORITHM_ALIASES.get(str(v).lower()) if isinstance(v, str) else None
         if a is None:
             raise _bad(source, where, v, allowed)
         return a
-    if key in ("greed", "phobia"):
-        if not _is_num(v) or not 0.0 <= v <= 1.0:
-            raise _bad(source, where, v, allowed)
-        return float(v)
-    if key == "resolution":
-        if v not in RESOLUTIONS:
-            raise _bad(source, where, v, allowed)
-        return v
-    if key == "direction":
-        if v not in DIRECTIONS:
-            raise _bad(source, where, v, allowed)
-        return v
-    if key == "max_rounds":
-        if not _is_int(v) or v < 0:
-            raise _bad(source, where, v, allowed)
-        return int(v)
-    if key == "max_steps":
-        if not _is_int(v) or v < 1:
-            raise _bad(source, where, v, allowed)
-        return int(v)
-    raise AssertionError(key)  # pragma: no cover
+    choices = {"layout": LAYOUTS, "resolution": RESOLUTIONS, "direction": DIRECTIONS}[key]
+    if v not in choices:
+        raise _bad(source, where, v, allowed)
+    return v
 
 
 def _load_preset(source: str, preset: str, base: Path) -> RobotSpec:
