@@ -106,6 +106,40 @@ def segment_closest(ax, ay, bx, by, cx, cy, dx, dy):
 
 
 @njit(cache=True, inline="always")
+def _project_sq(ex, ey, ax, ay, bx, by):
+    """As :func:`_project` with the squared distance (no square root)."""
+    ux = bx - ax
+    uy = by - ay
+    den = ux * ux + uy * uy
+    t = 0.0
+    if den > 0.0:
+        t = min(1.0, max(0.0, ((ex - ax) * ux + (ey - ay) * uy) / den))
+    fx = ax + t * ux
+    fy = ay + t * uy
+    return (ex - fx) ** 2 + (ey - fy) ** 2, t, fx, fy
+
+
+@njit(cache=True, inline="always")
+def segment_closest_sq(ax, ay, bx, by, cx, cy, dx, dy):
+    """As :func:`segment_closest` but returns the squared distance (mm^2): no roots.
+
+    Returns (distance^2, s, px, py, qx, qy).
+    """
+    best, _, qx, qy = _project_sq(ax, ay, cx, cy, dx, dy)
+    s_best, px, py = 0.0, ax, ay
+    d, _, fx, fy = _project_sq(bx, by, cx, cy, dx, dy)
+    if d < best:
+        best, s_best, px, py, qx, qy = d, 1.0, bx, by, fx, fy
+    d, t, fx, fy = _project_sq(cx, cy, ax, ay, bx, by)
+    if d < best:
+        best, s_best, px, py, qx, qy = d, t, fx, fy, cx, cy
+    d, t, fx, fy = _project_sq(dx, dy, ax, ay, bx, by)
+    if d < best:
+        best, s_best, px, py, qx, qy = d, t, fx, fy, dx, dy
+    return best, s_best, px, py, qx, qy
+
+
+@njit(cache=True, inline="always")
 def point_segment_distance(px, py, ax, ay, bx, by):
     """Distance from point P to segment AB, mm."""
     return math.sqrt(_point_segment_sq(px, py, ax, ay, bx, by))
