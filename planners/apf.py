@@ -161,6 +161,11 @@ class ApfSettings:
     lambda3 : float
         Cooperative weight (Macktoobian Eq. 5); 0 = plain APF. :class:`planners.capf.
         CapfSettings` sets it; here it must be in [0, lambda1).
+    gain : float
+        ``u = -gain J^T grad psi`` (1/s, lengths in mm), in (0, 1000]. The paper states
+        no units, so its weights fix the shape of the field but not its time scale:
+        scaling the gain changes how fast the robots descend before saturating, not where
+        the field's equilibria are. 1 = the weights read in mm and seconds.
     d_mm, D_mm : float or None
         Safety distance and envelope radius, ``0 < d < D <= 100``. None: tip 2 / 4 mm;
         segment ``2 buffer + margin`` / ``d + 2``.
@@ -206,6 +211,7 @@ class ApfSettings:
     lambda1: float = 1.0
     lambda2: float = 0.05
     lambda3: float = 0.0
+    gain: float = 1.0
     d_mm: float | None = None
     D_mm: float | None = None
     margin_mm: float | None = None
@@ -229,6 +235,7 @@ class ApfSettings:
             raise field_error(SpecError, "model", self.model, " | ".join(MODELS), "ApfSettings")
         l1 = _num(self.lambda1, "lambda1", 0.0, 1000.0, "(0, 1000]")
         _num(self.lambda2, "lambda2", 0.0, 1000.0, "(0, 1000]")
+        _num(self.gain, "gain", 0.0, 1000.0, "(0, 1000] 1/s")
         _num(self.lambda3, "lambda3", 0.0, l1, f"[0, lambda1 = {l1}) (Macktoobian: lambda3 < "
              "lambda1)", lo_open=False, hi_open=True)
         if self.d_mm is not None:
@@ -455,7 +462,7 @@ def _emit(ev_r, ev_a, ev_s, ev_v, n_ev, robot, axis, step, value):
 @njit(cache=True)
 def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop,
             fid_ptr, fid_idx, fid_xy, la, lb, s0, s1, segment, d, D, d_f, D_f,
-            l1, l2, l3, w_a, w_b, beta_lo, beta_hi, alpha_lo, alpha_hi, clamp_alpha,
+            l1, l2, l3, gain, w_a, w_b, beta_lo, beta_hi, alpha_lo, alpha_hi, clamp_alpha,
             dt, tol, max_steps, stall_steps, stall_rad, band_sin, axis_r, implicit, guard,
             simp_tol, cap):
     """Integrate the (cooperative) navigation field. Angles in radians, lengths in mm.
@@ -470,7 +477,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
     la, lb, s0, s1 : alpha / beta arm lengths, beta segment start / end along the arm
     segment : bool, segment model (else tip model)
     d, D, d_f, D_f : robot and fiducial safety / envelope distances
-    l1, l2, l3 : field weights; w_a, w_b : saturation speeds (rad/s)
+    l1, l2, l3 : field weights; gain : 1/s factor on u; w_a, w_b : saturation speeds (rad/s)
     beta_lo, beta_hi, alpha_lo, alpha_hi : joint limits (rad); clamp_alpha : bool
     dt : Euler step (s); tol : convergence distance; max_steps, stall_steps : ints
     stall_rad, band_sin, axis_r, implicit, guard, simp_tol : see ApfSettings
@@ -652,13 +659,15 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                 rn = max(math.sqrt(rx * rx + ry * ry), 0.1 * axis_r)
                 if rn < axis_r:
                     ua *= (axis_r / rn) ** 2
+            ua *= gain
+            ub *= gain
             if implicit:
                 # linearly implicit Euler in the attractive term: (I + 2 l1 dt J^T J) du = u
                 c1x = -la * P[i, 1] - lb * P[i, 3]
                 c1y = la * P[i, 0] + lb * P[i, 2]
                 c2x = -lb * P[i, 3]
                 c2y = lb * P[i, 2]
-                h = 2.0 * l1 * dt
+                h = 2.0 * l1 * dt * gain
                 m11 = 1.0 + h * (c1x * c1x + c1y * c1y)
                 m12 = h * (c1x * c2x + c1y * c2y)
                 m22 = 1.0 + h * (c2x * c2x + c2y * c2y)
@@ -1048,7 +1057,7 @@ def plan_apf(geom: ArrayGeometry, start, targets, settings: ApfSettings | None =
     (k, stop, th, ev_r, ev_a, ev_s, ev_v, n_ev, stats, settle, err, th_min, th_max) = run_apf(
         geom.base_xy, th0, np.ascontiguousarray(targets * DEG), np.ascontiguousarray(target_xy),
         mov, ptr, idx, coop, fptr, fidx, fid_xy, la, lb, s0, s1, segment, d, D, d_f, D_f,
-        settings.lambda1, settings.lambda2, settings.lambda3, wa_deg * DEG, wb_deg * DEG,
+        settings.lambda1, settings.lambda2, settings.lambda3, settings.gain, wa_deg * DEG, wb_deg * DEG,
         blo * DEG, bhi * DEG, alo * DEG, ahi * DEG, settings.enforce_alpha_limits, dt,
         settings.tol_mm, max_steps, stall_steps, settings.stall_deg * DEG,
         math.sin(settings.singular_band_deg * DEG), settings.axis_radius_mm,
