@@ -20,11 +20,13 @@ import numpy as np
 from models.array import ArrayGeometry
 from models.errors import SpecError, TargetError, UnknownRobotError
 from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
+from planners.resolve_search import PathSet, SearchResolveSettings, resolve_groups
 from planners.stepwise import ANGLE_EPS, max_displacement, run_stepwise
 from planners.targets import check_targets, random_targets
 
 ALGORITHMS = ("greedy", "markov")
 DIRECTIONS = ("reverse", "forward")
+RESOLVERS = ("search", "replace")
 
 
 @dataclass(frozen=True)
@@ -34,6 +36,10 @@ class PlannerSettings:
     algorithm : "greedy" | "markov"; step_deg : angular step (deg); greed, phobia : MC
     parameters in [0, 1]; direction : "reverse" | "forward"; max_steps : step limit
     (default 1000 deg / step, as in the paper); max_rounds : deadlock-resolution rounds.
+    resolve : "search" (re-plan each deadlocked group with the state-time search of
+    :mod:`planners.resolve_search`, keeping its targets; replace a target only where the
+    search fails) | "replace" (replace one target per group and re-plan, Sayres 2021
+    Sect. 5.2). search : options of the search (None = defaults).
     """
 
     algorithm: str = "greedy"
@@ -43,8 +49,12 @@ class PlannerSettings:
     direction: str = "reverse"
     max_steps: int | None = None
     max_rounds: int = 50
+    resolve: str = "search"
+    search: SearchResolveSettings | None = None
 
     def __post_init__(self) -> None:
+        if self.resolve not in RESOLVERS:
+            raise SpecError(f"field 'resolve' = {self.resolve!r}; allowed: {', '.join(RESOLVERS)}")
         if self.algorithm not in ALGORITHMS:
             raise SpecError(f"field 'algorithm' = {self.algorithm!r}; allowed: {', '.join(ALGORITHMS)}")
         if self.direction not in DIRECTIONS:
@@ -162,8 +172,8 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     settings : PlannerSettings
     rng : numpy Generator; seeds the Markov kernel and draws replacement targets
     offline : {robot_id: (alpha, beta)}; robots that never move, at these angles
-    resolve : replace one target per deadlocked group and re-plan (True), or stop after
-        the first run (False: the plan then marks stuck robots DEADLOCKED)
+    resolve : resolve deadlocks as ``settings.resolve`` says (True), or stop after the
+        first run (False: the plan then marks stuck robots DEADLOCKED)
     progress : optional callable(round, n_stuck) called after each planner run
 
     Returns
@@ -191,51 +201,91 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     replaced = np.zeros(n, dtype=bool)
     md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
                           settings.step_deg)
+    use_search = resolve and settings.resolve == "search"
+    search_settings = settings.search or SearchResolveSettings()
     tau_sr = 0.0
+    search_s = 0.0
     convergence = None
     rounds = 0
+    n_replace_groups = 0
+    n_search_failed = 0
+    outcome = None
     while True:
         seed = int(rng.integers(0, 2**31 - 1))
         if settings.direction == "reverse":
             run = run_once(geom, targets, fold, movable, settings, seed)
-            goal = fold
+            start, goal = targets, fold
         else:
             run = run_once(geom, fold, targets, movable, settings, seed)
-            goal = targets
+            start, goal = fold, targets
         tau_sr += run.seconds
         stuck = movable & ~np.all(np.abs(run.final - goal) < ANGLE_EPS, axis=1)
         if convergence is None:
             convergence = 1.0 - stuck.sum() / max(1, movable.sum())
         if progress is not None:
             progress(rounds, int(stuck.sum()))
-        if not stuck.any() or not resolve or rounds >= settings.max_rounds:
+        outcome = None
+        to_replace = deadlocked_groups(geom, stuck) if stuck.any() else []
+        if use_search and to_replace:
+            # keep targets: re-plan each deadlocked group by state-time search; its own
+            # generator (from this round's seed) leaves ``rng`` as "replace" uses it
+            ptr, steps, angles = build_paths(n, run.ev_robot, run.ev_step, run.ev_angles, start,
+                                             run.final, run.n_steps)
+            outcome = resolve_groups(geom, PathSet.from_csr(ptr, steps, angles), run.n_steps,
+                                     to_replace, start, goal, movable, md, settings.step_deg,
+                                     search_settings, np.random.default_rng([seed, 1]))
+            search_s += outcome.seconds
+            to_replace = outcome.failed
+            n_search_failed += len(to_replace)
+            resolved = outcome.resolved_robots
+            stuck = stuck.copy()
+            stuck[resolved] = False
+        if not to_replace or not resolve or rounds >= settings.max_rounds:
             break
         rounds += 1
-        for group in deadlocked_groups(geom, stuck):
+        for group in to_replace:
+            before = targets
             targets = _replace_one(geom, rng, targets, group, md)
+            n_replace_groups += int(np.any(targets != before))
             replaced |= targets[:, 0] != original[:, 0]
             replaced |= targets[:, 1] != original[:, 1]
 
     start = targets if settings.direction == "reverse" else fold
-    ptr, steps, angles = build_paths(n, run.ev_robot, run.ev_step, run.ev_angles, start,
-                                     run.final, run.n_steps)
+    n_steps = run.n_steps
+    n_search_groups = n_search_robots = n_search_replanned = 0
+    if outcome is not None:
+        n_steps = outcome.n_steps
+        ptr, steps, angles = outcome.paths.to_csr(n_steps)
+        ok = [g for g in outcome.groups if g.success]
+        n_search_groups = len(ok)
+        n_search_robots = int(sum(len(g.group) for g in ok))
+        n_search_replanned = int(sum(len(g.members) for g in ok))
+    else:
+        ptr, steps, angles = build_paths(n, run.ev_robot, run.ev_step, run.ev_angles, start,
+                                         run.final, run.n_steps)
     status = np.where(replaced, REPLACED, REACHED).astype(object)
     status[stuck] = DEADLOCKED
     status[~movable] = OFFLINE
     n_mov = int(movable.sum())
+    metrics = {
+        "n_robots": n, "n_movable": n_mov, "n_offline": n - n_mov,
+        "n_replaced": int(replaced.sum()), "n_deadlocked": int(stuck.sum()),
+        "efficiency": (n_mov - int(replaced.sum())) / max(1, n_mov),
+        "convergence": float(convergence), "rounds": rounds,
+        "tau_pg_s": run.seconds, "tau_sr_s": tau_sr,
+        "fold_time_s": n_steps * spec.step_seconds(settings.step_deg),
+        "n_steps": n_steps, "max_displacement_mm": md,
+    }
+    # deadlock resolution: groups kept by the search (final plan) vs groups given a new target
+    metrics.update({
+        "search_s": search_s, "n_search_groups": n_search_groups,
+        "n_search_robots": n_search_robots, "n_search_replanned": n_search_replanned,
+        "n_search_failed_groups": n_search_failed, "n_replace_groups": n_replace_groups,
+    })
     plan = Plan(
         robot_ids=geom.robot_ids.copy(), step_deg=settings.step_deg,
-        step_s=spec.step_seconds(settings.step_deg), n_steps=run.n_steps,
+        step_s=spec.step_seconds(settings.step_deg), n_steps=n_steps,
         path_ptr=ptr, path_step=steps, path_angles=angles, status=status,
-        targets=targets, original_targets=original,
-        metrics={
-            "n_robots": n, "n_movable": n_mov, "n_offline": n - n_mov,
-            "n_replaced": int(replaced.sum()), "n_deadlocked": int(stuck.sum()),
-            "efficiency": (n_mov - int(replaced.sum())) / max(1, n_mov),
-            "convergence": float(convergence), "rounds": rounds,
-            "tau_pg_s": run.seconds, "tau_sr_s": tau_sr,
-            "fold_time_s": run.n_steps * spec.step_seconds(settings.step_deg),
-            "n_steps": run.n_steps, "max_displacement_mm": md,
-        },
+        targets=targets, original_targets=original, metrics=metrics,
     )
     return plan.reversed() if settings.direction == "reverse" else plan

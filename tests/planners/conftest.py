@@ -20,9 +20,14 @@ def make_geom(n_positions: int = 37, buffer_mm: float = 2.0, preset: str = "sdss
     return ArrayGeometry(spec, Layout.hex_grid_positions(n_positions, spec.pitch_mm), buffer_mm)
 
 
-def plan_random(geom: ArrayGeometry, seed: int, resolve: bool = True, **settings):
-    """Seeded random targets (clear by the planner's MD) and a plan; returns (targets, plan)."""
-    s = PlannerSettings(**settings)
+def plan_random(geom: ArrayGeometry, seed: int, resolve: bool = True, resolver: str = "replace",
+                **settings):
+    """Seeded random targets (clear by the planner's MD) and a plan; returns (targets, plan).
+
+    ``resolver`` is PlannerSettings.resolve: these tests (and the golden masters) were
+    written for target replacement, so that stays their default here.
+    """
+    s = PlannerSettings(resolve=resolver, **settings)
     rng = np.random.default_rng(seed)
     md = max_displacement(geom.spec.alpha_length_mm, geom.spec.beta_length_mm,
                           float(geom.seg_end.max()), s.step_deg)

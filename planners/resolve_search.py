@@ -1,0 +1,564 @@
+"""Deadlock resolution that keeps targets: Sabater's state-time search for alpha/beta robots.
+
+The reverse GC/MC planner (:mod:`planners.stepwise`) sometimes leaves a group of robots
+deadlocked (Sayres 2021 Sect. 5.2). Instead of replacing one target of the group, this
+module plans the group's robots with the prioritized roadmap search of
+:mod:`planners.roadmap` (Sabater 2018), in the planner's frame: each deadlocked robot
+goes from its start (the target, when planning in reverse) to its destination (the
+folded state) while
+
+* every robot outside the group follows its existing stepwise path, a **moving
+  obstacle** on the planner's step clock (after its last breakpoint it stays put);
+* fiducials and offline robots are **static** obstacles (``forbidden``), with the joint
+  limits;
+* group members are planned one at a time in priority order (Sabater's longest direct
+  move first); members planned earlier are moving obstacles for the later ones, members
+  not planned yet are ignored (Sabater's Algorithm 1); when one fails, it moves to the
+  front and the group is planned again (a few orders).
+
+The search's time grid: one action lasts ``K`` planner steps (``K = round(action_deg /
+step_deg)``), and a robot moves at most ``step_deg`` per axis per step (the stepwise
+planner's speed, or slower on the shorter axis). Collisions are checked at every step
+(``dt_col`` = 1 step) with the stepwise planner's step rule (Sayres 2021 Eqs. 6-7): the
+beta capsules must be farther apart than ``buffer_i + buffer_j + MD`` (fiducials
+``buffer_i + fiducial_buffer + MD``), ``MD = max_displacement(...)``. Since both robots
+of a pair move at most one step per axis between two checks, that margin keeps the pair
+apart at the collision buffer in continuous time, exactly as it does for the stepwise
+planner (see the :mod:`planners.stepwise` docstring), so the merged plan passes
+:func:`validation.checker2d.check_trajectory` at the planning buffer.
+
+Units: mm and degrees; the search runs on the step clock (time unit = one planner step,
+``step_s`` seconds).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numba import njit
+
+from models.array import ArrayGeometry
+from models.errors import SpecError, field_error
+from models.geometry2d import beta_segment, point_segment_distance, segments_within
+from planners.roadmap import (Arm, ArmTrajectory, RoadmapSettings, default_priority,
+                              prioritized_plan)
+
+DEG = math.pi / 180.0
+
+
+# ------------------------------------------------------------------------------------
+# Settings
+# ------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SearchResolveSettings:
+    """How the search resolves a deadlocked group.
+
+    Attributes
+    ----------
+    action_deg : float, motion of one search action (Sabater's dt at full speed), deg;
+        rounded to a whole number of planner steps (at least one)
+    n_stop : int or None, start-stop cycles allowed per robot (nSSC); None = unlimited
+        (stepwise plans stop and restart freely; post-processing smooths them)
+    grid : (n_alpha, n_beta) roadmap grid over the joint limits
+    n_random_edges : int, random vertex pairs (3-edge paths)
+    max_paths : int, paths tried per robot
+    max_nodes : int, state-time nodes expanded per robot (all its paths)
+    max_orders : int, priority orders tried per group
+    resume_edges : bool, see :class:`planners.roadmap.RoadmapSettings`
+    expand : int, rounds of growing a failing group by the non-deadlocked neighbours
+        that block it (two per round); they are re-planned after the robot they block
+        and may leave their stepwise paths to make way
+    max_departures : int, times at which a deadlocked robot may leave the stepwise
+        motion it made before it got stuck (latest first)
+    """
+
+    action_deg: float = 2.0
+    n_stop: int | None = None
+    grid: tuple[int, int] = (13, 13)
+    n_random_edges: int = 16
+    max_paths: int = 40
+    max_nodes: int = 60_000
+    max_orders: int = 4
+    resume_edges: bool = True
+    expand: int = 3
+    max_departures: int = 4
+
+    def __post_init__(self) -> None:
+        where = "SearchResolveSettings"
+        if not (math.isfinite(self.action_deg) and self.action_deg > 0):
+            raise field_error(SpecError, "action_deg", self.action_deg, "> 0 deg", where)
+        if self.max_orders < 1:
+            raise field_error(SpecError, "max_orders", self.max_orders, ">= 1", where)
+        if self.expand < 0:
+            raise field_error(SpecError, "expand", self.expand, ">= 0", where)
+
+    def roadmap_settings(self, step_deg: float) -> RoadmapSettings:
+        """Roadmap settings on the step clock (time unit: one planner step)."""
+        k = max(1, int(round(self.action_deg / step_deg)))
+        return RoadmapSettings(dt=float(k), dt_col=1.0, n_stop=self.n_stop, grid=tuple(self.grid),
+                               n_random_edges=self.n_random_edges, corner_vertices=True,
+                               max_paths=self.max_paths, max_nodes=self.max_nodes,
+                               resume_edges=self.resume_edges, edge_check_step=step_deg,
+                               max_departures=self.max_departures)
+
+
+# ------------------------------------------------------------------------------------
+# Paths on the step clock
+# ------------------------------------------------------------------------------------
+@dataclass
+class PathSet:
+    """Per-robot breakpoint paths on the step clock, in the planner's frame.
+
+    steps[i] : (k,) float64 step index (non-decreasing); angles[i] : (k, 2) deg.
+    Before the first / after the last breakpoint a robot holds its first / last angles.
+    """
+
+    steps: list
+    angles: list
+
+    @classmethod
+    def from_csr(cls, ptr: np.ndarray, steps: np.ndarray, angles: np.ndarray) -> PathSet:
+        n = len(ptr) - 1
+        return cls([steps[ptr[i]:ptr[i + 1]].copy() for i in range(n)],
+                   [angles[ptr[i]:ptr[i + 1]].copy() for i in range(n)])
+
+    def to_csr(self, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """CSR arrays (ptr, steps, angles) with every path ending at ``n_steps``."""
+        st, an = [], []
+        for s, a in zip(self.steps, self.angles):
+            if s[-1] < n_steps:
+                s = np.append(s, float(n_steps))
+                a = np.vstack([a, a[-1:]])
+            st.append(s)
+            an.append(a)
+        ptr = np.zeros(len(st) + 1, dtype=np.int64)
+        ptr[1:] = np.cumsum([len(s) for s in st])
+        return ptr, np.concatenate(st), np.concatenate(an)
+
+    def motion_end(self, i: int) -> float:
+        """Step of robot i's last motion (its last breakpoint that changes the angles)."""
+        a = self.angles[i]
+        moved = np.flatnonzero(np.any(np.abs(np.diff(a, axis=0)) > 1e-12, axis=1))
+        return 0.0 if moved.size == 0 else float(self.steps[i][moved[-1] + 1])
+
+    def sample(self, i: int, k: np.ndarray) -> np.ndarray:
+        """Robot i's angles at steps k: (len(k), 2) deg."""
+        s, a = self.steps[i], self.angles[i]
+        return np.column_stack([np.interp(k, s, a[:, 0]), np.interp(k, s, a[:, 1])])
+
+
+# ------------------------------------------------------------------------------------
+# Numba kernels: the black boxes' inner loops
+# ------------------------------------------------------------------------------------
+@njit(cache=True)
+def _segments_at(base_x, base_y, ang, l_alpha, s0, s1):
+    """Beta segments (x0, y0, x1, y1) of one robot at each row of ang (T, 2) deg: (T, 4)."""
+    out = np.empty((ang.shape[0], 4))
+    for k in range(ang.shape[0]):
+        x0, y0, x1, y1 = beta_segment(base_x, base_y, ang[k, 0], ang[k, 1], l_alpha, s0, s1)
+        out[k, 0] = x0
+        out[k, 1] = y0
+        out[k, 2] = x1
+        out[k, 3] = y1
+    return out
+
+
+@njit(cache=True)
+def _collides(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_th, out, hits):
+    """Moving-obstacle test of one robot.
+
+    q : (m, 2) deg; t : (m,) step index (whole numbers; clamped to the table)
+    obs_seg : (T + 1, n_obs, 4) obstacle beta segments at each step, mm
+    obs_th : (n_obs,) clearance threshold per obstacle (buffer_i + buffer_j + MD), mm
+    out : (m,) bool, written
+    hits : (n_obs,) int64, incremented for the first obstacle each colliding query meets
+    """
+    n_t = obs_seg.shape[0]
+    n_obs = obs_seg.shape[1]
+    for r in range(q.shape[0]):
+        k = int(round(t[r]))
+        if k < 0:
+            k = 0
+        elif k >= n_t:
+            k = n_t - 1
+        x0, y0, x1, y1 = beta_segment(bx, by, q[r, 0], q[r, 1], l_alpha, s0, s1)
+        hit = False
+        for o in range(n_obs):
+            if segments_within(x0, y0, x1, y1, obs_seg[k, o, 0], obs_seg[k, o, 1],
+                               obs_seg[k, o, 2], obs_seg[k, o, 3], obs_th[o]):
+                hit = True
+                hits[o] += 1
+                break
+        out[r] = hit
+
+
+@njit(cache=True)
+def _forbidden(q, bx, by, l_alpha, s0, s1, limits, st_seg, st_th, pt_xy, pt_th, out):
+    """Static test of one robot: joint limits, static segments (offline robots), points
+    (fiducials). q (m, 2) deg; limits (4,) deg; st_seg (a, 4) mm, st_th (a,) mm;
+    pt_xy (b, 2) mm, pt_th (b,) mm; out (m,) bool."""
+    for r in range(q.shape[0]):
+        a = q[r, 0]
+        b = q[r, 1]
+        if a < limits[0] - 1e-9 or a > limits[1] + 1e-9 or b < limits[2] - 1e-9 or b > limits[3] + 1e-9:
+            out[r] = True
+            continue
+        x0, y0, x1, y1 = beta_segment(bx, by, a, b, l_alpha, s0, s1)
+        hit = False
+        for o in range(st_seg.shape[0]):
+            if segments_within(x0, y0, x1, y1, st_seg[o, 0], st_seg[o, 1], st_seg[o, 2],
+                               st_seg[o, 3], st_th[o]):
+                hit = True
+                break
+        if not hit:
+            for o in range(pt_xy.shape[0]):
+                if point_segment_distance(pt_xy[o, 0], pt_xy[o, 1], x0, y0, x1, y1) <= pt_th[o]:
+                    hit = True
+                    break
+        out[r] = hit
+
+
+# ------------------------------------------------------------------------------------
+# The alpha/beta adapter: one robot's black boxes
+# ------------------------------------------------------------------------------------
+class AlphaBetaWorld:
+    """Black boxes ``forbidden(q)`` and ``collides(q, t)`` of alpha/beta robots on a step clock.
+
+    Parameters
+    ----------
+    geom : ArrayGeometry (layout, spec, buffers, Eq. 4 neighbours, fiducials)
+    paths : PathSet, every robot's current path in the planning frame (step clock)
+    movable : (n,) bool; False = offline robot (a static obstacle at its path's start)
+    md : float, step-rule margin MD, mm (:func:`planners.stepwise.max_displacement`)
+    step_deg : float, planner step, deg (the search's top speed: one step per axis per step)
+    """
+
+    def __init__(self, geom: ArrayGeometry, paths: PathSet, movable: np.ndarray, md: float,
+                 step_deg: float):
+        self.geom = geom
+        self.paths = paths
+        self.movable = np.asarray(movable, dtype=bool)
+        self.md = float(md)
+        self.step_deg = float(step_deg)
+        spec = geom.spec
+        self.l_alpha = float(spec.alpha_length_mm)
+        self.s0 = float(spec.segment_start_mm)
+        self.limits = np.array([*spec.alpha_limits_deg, *spec.beta_limits_deg], dtype=np.float64)
+        #: robot index -> (obstacle robot indices, collisions met) of its latest arm
+        self.hits: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    def blockers(self, i: int, exclude=()) -> list[int]:
+        """Moving obstacles robot i met most in its latest search, most first."""
+        if i not in self.hits:
+            return []
+        robots, counts = self.hits[i]
+        order = np.argsort(-counts, kind="stable")
+        ex = set(int(j) for j in exclude)
+        return [int(robots[k]) for k in order if counts[k] > 0 and int(robots[k]) not in ex]
+
+    def neighbours(self, i: int) -> np.ndarray:
+        g = self.geom
+        return g.nbr_idx[g.nbr_ptr[i]:g.nbr_ptr[i + 1]]
+
+    def arm(self, i: int, start: np.ndarray, goal: np.ndarray, t_start: float = 0.0,
+            ignore: frozenset[int] = frozenset(), override: dict | None = None) -> Arm:
+        """Robot index i as a :class:`planners.roadmap.Arm` on the step clock.
+
+        Parameters
+        ----------
+        i : robot index; start, goal : (2,) deg; t_start : step at which it leaves start
+        ignore : robot indices that are no obstacle at all (group members not planned yet
+            that have no fixed prefix)
+        override : {robot index: (steps, angles, active_until)}: paths that replace the
+            ones of ``self.paths`` (members planned before i, or a member's fixed
+            prefix); after ``active_until`` (a step, or None = never) the robot is no
+            obstacle any more (a member not planned yet, beyond its prefix)
+        """
+        g = self.geom
+        override = override or {}
+        bx, by = float(g.base_xy[i, 0]), float(g.base_xy[i, 1])
+        s1 = float(g.seg_end[i])
+        bi = float(g.buffer[i])
+        movers, statics = [], []
+        for j in self.neighbours(i):
+            j = int(j)
+            if j == i or j in ignore:
+                continue
+            (movers if self.movable[j] else statics).append(j)
+        # time table of the moving obstacles, to the step where the last one stops
+        ends = []
+        for j in movers:
+            if j in override:
+                st, an, until = override[j]
+                ends.append(float(st[-1]) if until is None else float(until))
+            else:
+                ends.append(self.paths.motion_end(j))
+        t_last = int(math.ceil(max(ends + [t_start], default=0.0)))
+        ks = np.arange(t_last + 1, dtype=np.float64)
+        obs_seg = np.empty((t_last + 1, len(movers), 4))
+        obs_th = np.empty(len(movers))
+        for o, j in enumerate(movers):
+            until = None
+            if j in override:
+                st, an, until = override[j]
+                ang = np.column_stack([np.interp(ks, st, an[:, 0]), np.interp(ks, st, an[:, 1])])
+            else:
+                ang = self.paths.sample(j, ks)
+            obs_seg[:, o, :] = _segments_at(float(g.base_xy[j, 0]), float(g.base_xy[j, 1]),
+                                            np.ascontiguousarray(ang), self.l_alpha, self.s0,
+                                            float(g.seg_end[j]))
+            if until is not None:
+                obs_seg[ks > until, o, :] = _FAR_MM     # gone: no longer an obstacle
+            obs_th[o] = bi + float(g.buffer[j]) + self.md
+        st_seg = np.empty((len(statics), 4))
+        st_th = np.empty(len(statics))
+        for o, j in enumerate(statics):
+            a = self.paths.angles[j][0]
+            st_seg[o] = _segments_at(float(g.base_xy[j, 0]), float(g.base_xy[j, 1]),
+                                     np.ascontiguousarray(a[None, :]), self.l_alpha, self.s0,
+                                     float(g.seg_end[j]))[0]
+            st_th[o] = bi + float(g.buffer[j]) + self.md
+        fids = g.fid_idx[g.fid_ptr[i]:g.fid_ptr[i + 1]]
+        pt_xy = np.ascontiguousarray(g.fid_xy[fids], dtype=np.float64).reshape(-1, 2)
+        pt_th = np.full(len(fids), bi + g.fiducial_buffer + self.md)
+        l_alpha, s0, limits = self.l_alpha, self.s0, self.limits
+        hits = np.zeros(len(movers), dtype=np.int64)
+        self.hits[i] = (np.array(movers, dtype=np.int64), hits)
+
+        def collides(q: np.ndarray, t: np.ndarray) -> np.ndarray:
+            out = np.empty(q.shape[0], dtype=np.bool_)
+            _collides(np.ascontiguousarray(q, dtype=np.float64), np.asarray(t, dtype=np.float64),
+                      bx, by, l_alpha, s0, s1, obs_seg, obs_th, out, hits)
+            return out
+
+        def forbidden(q: np.ndarray) -> np.ndarray:
+            out = np.empty(q.shape[0], dtype=np.bool_)
+            _forbidden(np.ascontiguousarray(q, dtype=np.float64), bx, by, l_alpha, s0, s1, limits,
+                       st_seg, st_th, pt_xy, pt_th, out)
+            return out
+
+        v = np.full(2, self.step_deg)
+        return Arm(start=np.asarray(start, dtype=np.float64), goal=np.asarray(goal, dtype=np.float64),
+                   vmax=v, forbidden=forbidden, collides=collides,
+                   lower=self.limits[[0, 2]].copy(), upper=self.limits[[1, 3]].copy(),
+                   t_start=float(t_start), hold_until=float(t_last), t_static=float(t_last))
+
+
+#: Coordinate (mm) that puts an obstacle out of reach once it is gone.
+_FAR_MM = 1.0e7
+
+
+# ------------------------------------------------------------------------------------
+# Resolving groups
+# ------------------------------------------------------------------------------------
+@dataclass
+class GroupResult:
+    """Outcome of one deadlocked group.
+
+    Attributes
+    ----------
+    group : (g,) robot indices deadlocked together
+    members : robot indices re-planned (the group, plus neighbours if it was expanded)
+    success : bool
+    orders_tried : int, priority orders tried (over all expansions)
+    seconds : float
+    """
+
+    group: np.ndarray
+    members: np.ndarray
+    success: bool
+    orders_tried: int
+    seconds: float
+
+
+@dataclass
+class SearchOutcome:
+    """What :func:`resolve_groups` did.
+
+    Attributes
+    ----------
+    paths : PathSet with the paths of every resolved group replaced (planning frame)
+    n_steps : int, length of the plan on the step clock (>= the stepwise run's)
+    groups : list of GroupResult, in the order processed
+    seconds : float, wall time of the search
+    """
+
+    paths: PathSet
+    n_steps: int
+    groups: list = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def failed(self) -> list[np.ndarray]:
+        return [g.group for g in self.groups if not g.success]
+
+    @property
+    def resolved_robots(self) -> np.ndarray:
+        """Indices of the deadlocked robots whose groups the search resolved."""
+        ok = [g.group for g in self.groups if g.success]
+        return np.concatenate(ok) if ok else np.zeros(0, dtype=np.int64)
+
+
+def _prefix(paths: PathSet, i: int, cut: float) -> tuple[np.ndarray, np.ndarray]:
+    """Robot i's path up to step ``cut`` (its breakpoints before, and the point at cut)."""
+    st, an = paths.steps[i], paths.angles[i]
+    keep = st < cut
+    end = paths.sample(i, np.array([cut]))
+    return np.append(st[keep], cut), np.vstack([an[keep], end])
+
+
+def plan_group(world: AlphaBetaWorld, members: list[int], start: np.ndarray, dest: np.ndarray,
+               settings: SearchResolveSettings, rng: np.random.Generator,
+               cuts: dict[int, float] | None = None, yielders: dict[int, set] | None = None,
+               order: list[int] | None = None):
+    """Prioritized search of ``members`` (robot indices) to their ``dest`` rows.
+
+    Parameters
+    ----------
+    cuts : {robot index: step}; a member may follow its current path up to that step (its
+        prefix: for a deadlocked robot the stepwise motion it made before it got stuck,
+        for a yielding neighbour its whole stepwise path) and leave it at any time
+        (:attr:`planners.roadmap.Arm.lead_in`); members without a cut are searched from
+        ``start`` at step 0.
+    yielders : {robot index: robots it yields to}; non-deadlocked neighbours re-planned
+        so that they can get out of the way. Until planned, a yielder is an obstacle on
+        its current path (as if not re-planned) for every member except those it yields
+        to, which ignore it.
+    order : priority order (positions in ``members``), default Sabater's Sect. 7.
+
+    Until it is planned, a deadlocked member is an obstacle along its prefix only and
+    is ignored after it (Sabater's Algorithm 1: later arms avoid earlier ones).
+
+    Returns (PrioritizedResult whose arm indices are positions in ``members``, {robot
+    index: (steps, angles)} full paths of the planned members).
+    """
+    members = [int(i) for i in members]
+    cuts = {i: float(c) for i, c in (cuts or {}).items() if c > 0}
+    yielders = yielders or {}
+    rs = settings.roadmap_settings(world.step_deg)
+    prefix = {i: _prefix(world.paths, i, cuts[i]) for i in members if i in cuts}
+    begin = {i: world.paths.sample(i, np.array([cuts[i]]))[0] if i in cuts else start[i]
+             for i in members}
+
+    def make_arm(a: int, planned: dict[int, ArmTrajectory]) -> Arm:
+        i = members[a]
+        override, ignore = {}, set()
+        for b, j in enumerate(members):
+            if j == i:
+                continue
+            if b in planned:
+                override[j] = (planned[b].times, planned[b].configs, None)
+            elif j in yielders:
+                if i in yielders[j]:
+                    ignore.add(j)        # j will get out of i's way
+                # else: j's current path, held at its end, as for any other robot
+            elif j in prefix:
+                override[j] = (*prefix[j], cuts[j])
+            else:
+                ignore.add(j)
+        arm = world.arm(i, start[i], dest[i], 0.0, frozenset(ignore), override)
+        if i in prefix:
+            # it may keep its stepwise motion for a while and leave it at any time
+            arm = replace(arm, lead_in=prefix[i])
+        return arm
+
+    if order is None:
+        est = [float(np.max(np.abs(dest[i] - begin[i]))) for i in members]
+        order = sorted(range(len(members)), key=lambda a: -est[a])   # Sabater Sect. 7
+    res = prioritized_plan(len(members), make_arm, rs, rng, order=order,
+                           max_orders=settings.max_orders)
+    paths = {members[a]: (tr.times, tr.configs) for a, tr in res.trajectories.items()}
+    return res, paths
+
+
+def _plan_group_growing(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray,
+                        dest: np.ndarray, movable: np.ndarray, deadlocked: np.ndarray,
+                        settings: SearchResolveSettings, rng: np.random.Generator):
+    """Try to re-plan a deadlocked group, growing it by the neighbours that block it.
+
+    Two starts are tried: (1) each deadlocked robot may keep the stepwise motion it made
+    before it got stuck (a lead-in it can leave at any time), (2) it is searched from
+    step 0. In each, when a robot X fails, the non-deadlocked robots it met most
+    (``settings.expand`` rounds, two at a time) join the group as yielders: they are
+    re-planned after X, may keep their stepwise path for a while and leave it to get
+    out of X's way, and X ignores them.
+
+    Returns (success, members, {robot: (steps, angles)}, orders tried).
+    """
+    tried = 0
+    members = [int(i) for i in group]
+    for keep_prefix in (True, False):
+        members = [int(i) for i in group]
+        cuts = {i: world.paths.motion_end(i) for i in members} if keep_prefix else {}
+        yielders: dict[int, set] = {}
+        order = None
+        for grow in range(settings.expand + 1):
+            res, new_paths = plan_group(world, members, start, dest, settings, rng, cuts,
+                                        yielders, order)
+            tried += res.orders_tried
+            if res.success:
+                return True, members, new_paths, tried
+            if grow == settings.expand or res.failed_arm is None:
+                break
+            x = members[res.failed_arm]
+            new = [j for j in world.blockers(x, exclude=members)
+                   if movable[j] and not deadlocked[j]][:2]
+            if not new:
+                break
+            rest = [a for a in res.order if a != res.failed_arm]
+            for j in new:
+                yielders[j] = {x}
+                cuts[j] = world.paths.motion_end(j)
+                members.append(j)
+            # X first, then the robots that make way for it, then the others
+            order = [res.failed_arm] + list(range(len(members) - len(new), len(members))) + rest
+    return False, members, {}, tried
+
+
+def resolve_groups(geom: ArrayGeometry, paths: PathSet, n_steps: int, groups: list[np.ndarray],
+                   start: np.ndarray, dest: np.ndarray, movable: np.ndarray, md: float,
+                   step_deg: float, settings: SearchResolveSettings,
+                   rng: np.random.Generator) -> SearchOutcome:
+    """Re-plan each deadlocked group by prioritized state-time search, keeping targets.
+
+    Parameters
+    ----------
+    geom : ArrayGeometry
+    paths : PathSet, the stepwise run's paths (planning frame: start -> dest)
+    n_steps : int, length of that run in steps
+    groups : deadlocked groups (robot index arrays), e.g. from ``deadlocked_groups``
+    start, dest : (n, 2) deg, every robot's start and destination in the planning frame
+    movable : (n,) bool, False for offline robots
+    md : float, step-rule margin MD, mm; step_deg : float, planner step, deg
+    settings : SearchResolveSettings; rng : numpy Generator
+
+    Returns
+    -------
+    SearchOutcome. Groups are processed one after the other; a resolved group's new
+    paths are moving obstacles for the groups after it. A group that fails keeps its
+    stepwise paths (still deadlocked). A failing group may be grown by its
+    non-deadlocked neighbours (``settings.expand``), whose stepwise paths are then
+    re-planned by the search as well.
+    """
+    clock = time.perf_counter()
+    paths = PathSet(list(paths.steps), list(paths.angles))
+    world = AlphaBetaWorld(geom, paths, movable, md, step_deg)
+    deadlocked = np.zeros(geom.n_robots, dtype=bool)
+    for g in groups:
+        deadlocked[g] = True
+    out = SearchOutcome(paths, int(n_steps))
+    for group in groups:
+        t0 = time.perf_counter()
+        ok, members, new_paths, tried = _plan_group_growing(world, group, start, dest, movable,
+                                                            deadlocked, settings, rng)
+        if ok:
+            for i, (st, an) in new_paths.items():
+                paths.steps[i] = np.asarray(st, dtype=np.float64)
+                paths.angles[i] = np.asarray(an, dtype=np.float64)
+                out.n_steps = max(out.n_steps, int(math.ceil(float(st[-1]))))
+        out.groups.append(GroupResult(np.asarray(group), np.asarray(members), ok, tried,
+                                      time.perf_counter() - t0))
+    out.seconds = time.perf_counter() - clock
+    return out
