@@ -28,6 +28,11 @@ Paper errors, and what this module does instead
 * **Theorem 1 / "lambda1 < 72 lambda2"** do not check out in any unit: convergence is
   verified by simulation (benchmarks/bench_apf.py), and every run reports its smallest
   distance, because discrete steps can break the barrier.
+* **Units / time scale.** The paper states no units. Here lengths are mm, psi is
+  mm^2 and ``u = -gain J^T grad psi`` is rad/s with ``gain`` in 1/s (default 1: the
+  weights read in mm and s). The gain sets how fast robots descend before the speed
+  limit, not where the field's equilibria are; with the DESI preset ``gain = 10`` gives
+  the paper's ~2.5 s motion time, ``gain = 1`` about 3-4 s (benchmarks/RESULTS.md).
 
 Singularities (beta = 0 and 180 deg)
 ------------------------------------
@@ -41,7 +46,16 @@ beta ~ 0, outwards at beta ~ 180), beta additionally gets
 ``sign(beta_T - beta) * |f . r| * l_beta * (1 - |sin beta| / sin(band))`` rad/s, ``r``
 the unit vector from the base to the tip: the push the Jacobian cannot transmit is
 handed to beta, towards the target's beta (right-armed targets: away from 0 and 180),
-fading out at the band edge. Outside the band the field is exactly the paper's.
+fading out at the band edge.
+
+When ``l_alpha ~ l_beta`` (DESI: 3 + 3 mm) beta = 180 deg also puts the tip on the alpha
+axis, where alpha moves the tip with gain ``r = |tip - base|`` only: with ``J^T`` the
+tangential approach to a target near the centre slows as ``r^2`` (a robot with its
+target 0.3 mm from its axis needed ~10 s). Alpha-axis rule: for ``r < axis_radius_mm``
+(default 1.5 mm) alpha's velocity is multiplied by ``(axis_radius / max(r, axis_radius
+/ 10))^2``. A positive diagonal scaling of ``u`` keeps it a descent direction and moves
+no equilibrium. It never acts when ``|l_alpha - l_beta| >= axis_radius_mm`` (SDSS-V).
+Outside these bands the field is exactly the paper's.
 
 Numerical safeguards (not in the paper, documented so results can be judged)
 -----------------------------------------------------------------------------
@@ -52,7 +66,8 @@ Numerical safeguards (not in the paper, documented so results can be judged)
   quadratic attraction, and since the matrix is positive definite it keeps ``u``'s
   descent property and changes no equilibrium (``dtheta = 0`` iff ``u = 0``). For DESI
   arms it shortens steps by at most ~2x, and only when unsaturated.
-  ``implicit_attraction=False`` gives the paper's explicit Euler.
+  ``implicit_attraction=False`` gives the paper's explicit Euler. The matrix uses
+  ``2 lambda1 gain dt``.
 * *Step guard.* After all robots propose their step (Jacobi: every robot sees the same
   state), any pair whose new distance is ``<= d`` (or robot-fiducial ``<= d_fid``) has
   the steps of both of its robots halved, up to 4 times, then cancelled. The state at
@@ -74,7 +89,10 @@ motion between two Euler steps and the simplification tolerance, so that a traje
 whose sampled distances are all ``> d`` passes the dense capsule check
 (validation/checker2d.py) at ``buffer``: two points of two arms move at most
 ``V dt`` closer between samples, ``V = l_alpha w_a + r_max (w_a + w_b)`` (rad/s speeds).
-Fiducials: point-segment distance, ``d_fid = buffer + fiducial_buffer + margin``.
+Fiducials: point-segment distance, ``d_fid = buffer + fiducial_buffer + margin``. (If
+an axis needed more than ``max_points`` breakpoints, its tolerance was raised:
+``ApfResult.simplify_tol_used_deg``; above ``simplify_tol_deg`` the margin no longer
+covers it and the trajectory should be checked, as the CLI always does.)
 
 In both models ``D_fid = d_fid + (D - d)``. Offline robots never move and repel their
 neighbours like any other robot; they take no part in the cooperative term.
@@ -487,8 +505,8 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
     -------
     n_steps, stop (0 converged, 1 stalled, 2 max steps), th (n, 2) final,
     ev_r, ev_a, ev_s, ev_v, n_ev : breakpoints (robot, axis, step, angle rad),
-    stats (5,) = min pair distance, min tip distance, min fiducial distance,
-    guard events, alpha excursion flag count; settle (n,) int64 step of last entry into
+    stats (4,) = min pair distance, min tip distance, min fiducial distance,
+    guard events; settle (n,) int64 step of last entry into
     tolerance (-1 if not converged); err (n,) final tip errors (mm); th_min, th_max
     (n, 2) angle ranges visited.
     """
@@ -759,7 +777,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
     for i in range(n):
         for ax in range(2):
             ev_r, ev_a, ev_s, ev_v, n_ev = _emit(ev_r, ev_a, ev_s, ev_v, n_ev, i, ax, k, th[i, ax])
-    stats = np.array([min_pair, min_tip, min_fid, float(n_guard), 0.0])
+    stats = np.array([min_pair, min_tip, min_fid, float(n_guard)])
     return k, stop, th, ev_r, ev_a, ev_s, ev_v, n_ev, stats, settle, err, th_min, th_max
 
 
@@ -1011,6 +1029,11 @@ def plan_apf(geom: ArrayGeometry, start, targets, settings: ApfSettings | None =
     Returns
     -------
     ApfResult
+
+    Targets closer than about ``d + 1`` mm (tip model; the equilibrium of attraction
+    and repulsion) cannot be reached within 100 um, and targets within ``d`` never:
+    those robots end not converged. :func:`random_tip_configs` and
+    :func:`apf_target_margin_mm` draw targets that can.
 
     Raises
     ------

@@ -11,7 +11,7 @@ from models.errors import SpecError, TargetError, UnknownRobotError
 from models.kinematics import forward, inverse
 from models.layout import Layout
 from models.robot import load_spec
-from planners.apf import (ApfSettings, apf_plan, apf_target_margin_mm, plan_apf,
+from planners.apf import (ApfSettings, apf_target_margin_mm, plan_apf,
                           plan_apf_reconfiguration, random_tip_configs, rep_dpsi_ds, rep_potential)
 from planners.plan import DEADLOCKED, OFFLINE, REACHED
 from planners.targets import random_targets
