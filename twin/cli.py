@@ -6,6 +6,7 @@ command exits non-zero; nothing half-written is left behind.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -24,7 +25,7 @@ from models.kinematics import inverse
 from models.layout import Layout
 from models.robot import load_spec
 from planners.plan import DEADLOCKED
-from planners.solver import ALGORITHMS, DIRECTIONS, PlannerSettings, plan_reconfiguration
+from planners.solver import ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings, plan_reconfiguration
 from planners.stepwise import max_displacement
 from planners.targets import random_targets
 from planners.trajectory import Trajectory
@@ -47,6 +48,10 @@ def _root() -> None:
 EXIT_BAD_INPUT = 2
 EXIT_INCOMPLETE = 3
 EXIT_COLLISION = 4
+#: Planners that integrate a potential field (planners/apf.py, planners/capf.py).
+FIELD_ALGORITHMS = ("apf", "capf")
+#: Extra clearance (mm) beyond the field's barrier that random targets keep.
+APF_TARGET_SLACK_MM = 0.5
 
 
 def resolve_layout(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = ()) -> Layout:
@@ -147,7 +152,8 @@ def plan(
                                   "(generated grids only)."),
     buffer: Optional[float] = typer.Option(None, help="Collision buffer sigma_cb, mm [default: preset]."),
     step: float = typer.Option(0.1, help="Angular step, deg."),
-    algorithm: str = typer.Option("greedy", help="greedy | markov"),
+    algorithm: str = typer.Option("greedy", help="greedy | markov (stepwise, Sayres 2021) | apf "
+                                  "(Makarem 2014 navigation function) | capf (Macktoobian 2019)"),
     greed: float = typer.Option(0.9, help="Markov greed, [0, 1]."),
     phobia: float = typer.Option(0.3, help="Markov phobia, [0, 1]."),
     seed: int = typer.Option(0, help="Seed of targets, Markov moves and replacements."),
@@ -156,7 +162,12 @@ def plan(
     targets: Optional[Path] = typer.Option(None, help="Targets CSV (robot_id + alpha_deg,beta_deg or "
                                            "x_mm,y_mm) [default: seeded random]."),
     direction: str = typer.Option("reverse", help="reverse (targets->fold, reversed) | forward"),
-    resolve: bool = typer.Option(True, help="Replace one target per deadlocked group and re-plan."),
+    resolve: str = typer.Option("search", help="Deadlocks left by greedy/markov: search (re-plan the "
+                                "group by state-time search, keeping targets; replace where that "
+                                "fails) | replace (new target for one robot per group, Sayres "
+                                "2021) | none."),
+    apf_gain: float = typer.Option(1.0, help="apf/capf: field gain u = -gain J^T grad psi, 1/s."),
+    lambda3: float = typer.Option(0.03, help="capf: cooperative weight (Macktoobian Eq. 5)."),
     max_steps: Optional[int] = typer.Option(None, help="Step limit [default: 1000 deg / step]."),
     out: Path = typer.Option(Path("out/plan"), help="Output folder (must not exist unless --force)."),
     force: bool = typer.Option(False, help="Replace an existing output folder."),
@@ -177,16 +188,27 @@ def plan(
         spec = spec.with_overrides(buffer_mm=buffer)
     if layout is None:
         layout = "sdss-v-fps" if spec.name.startswith("sdss-v") else "hex:547"
-    if algorithm not in ALGORITHMS:
-        raise RfpError(f"--algorithm {algorithm!r}; allowed: {', '.join(ALGORITHMS)}")
+    if algorithm not in ALGORITHMS + FIELD_ALGORITHMS:
+        raise RfpError(f"--algorithm {algorithm!r}; allowed: "
+                       f"{', '.join(ALGORITHMS + FIELD_ALGORITHMS)}")
+    if resolve not in RESOLVERS + ("none",):
+        raise RfpError(f"--resolve {resolve!r}; allowed: {', '.join(RESOLVERS + ('none',))}")
     if direction not in DIRECTIONS:
         raise RfpError(f"--direction {direction!r}; allowed: {', '.join(DIRECTIONS)}")
     lay = resolve_layout(layout, spec.pitch_mm, _parse_ids(fiducials, "--fiducials"))
     geom = ArrayGeometry(spec, lay, spec.buffer_mm)
-    settings = PlannerSettings(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,
-                               direction=direction, max_steps=max_steps)
+    stepwise = algorithm in ALGORITHMS
+    settings = PlannerSettings(algorithm=algorithm if stepwise else "greedy", step_deg=step,
+                               greed=greed, phobia=phobia, direction=direction,
+                               max_steps=max_steps, resolve="replace" if resolve == "none" else resolve)
+    field = None if stepwise else field_settings(algorithm, apf_gain, lambda3)
     rng = np.random.default_rng(seed)
     md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
+    if field is not None:
+        from planners.apf import apf_target_margin_mm
+
+        # targets inside the field's barrier (d = 2 buffer + margin) can never be reached
+        md = apf_target_margin_mm(geom, field) + APF_TARGET_SLACK_MM
     off = parse_offline(offline, spec)
     if targets is None:
         fixed = np.zeros(geom.n_robots, dtype=bool)
@@ -199,18 +221,14 @@ def plan(
     else:
         tg = read_targets_csv(targets, geom)
 
-    with Progress(TextColumn("[bold]planning[/] {task.description}"), BarColumn(),
-                  TextColumn("{task.completed}/{task.total} rounds"), TimeElapsedColumn(),
-                  console=err_console, transient=True) as progress:
-        task = progress.add_task(f"{geom.n_robots} robots, {algorithm}", total=settings.max_rounds + 1)
+    if field is not None:
+        from planners.apf import plan_apf_reconfiguration
 
-        def on_round(rnd: int, n_stuck: int) -> None:
-            progress.update(task, completed=rnd + 1,
-                            description=f"{geom.n_robots} robots, {algorithm}: {n_stuck} deadlocked")
+        with err_console.status(f"planning {geom.n_robots} robots, {algorithm} field"):
+            result, _ = plan_apf_reconfiguration(geom, tg, field, offline=off, algorithm=algorithm)
+    else:
+        result = _plan_stepwise(geom, tg, settings, rng, off, resolve != "none", algorithm)
 
-        result = plan_reconfiguration(geom, tg, settings, rng, offline=off, resolve=resolve,
-                                      progress=on_round)
-        progress.update(task, completed=settings.max_rounds + 1)
 
     post = None
     if raw:
@@ -228,9 +246,13 @@ def plan(
         "spec": spec.source, "robot": spec.name, "layout": layout, "n_robots": geom.n_robots,
         "n_fiducials": lay.n_fiducials, "buffer_mm": spec.buffer_mm,
         "segment_mm": [spec.segment_start_mm, spec.segment_end(spec.buffer_mm)],
-        "step_deg": step, "algorithm": algorithm, "greed": greed if algorithm == "markov" else 1.0,
-        "phobia": phobia if algorithm == "markov" else 0.0, "seed": seed, "direction": direction,
-        "resolve": resolve, "max_steps": settings.steps_limit, "offline": sorted(off),
+        "step_deg": step if stepwise else None, "algorithm": algorithm,
+        "greed": greed if algorithm == "markov" else 1.0,
+        "phobia": phobia if algorithm == "markov" else 0.0, "seed": seed,
+        "direction": direction if stepwise else "direct (fold -> targets)",
+        "resolve": resolve if stepwise else "none", "max_steps": settings.steps_limit if stepwise else None,
+        "field": dataclasses.asdict(field) if field is not None else None,
+        "offline": sorted(off),
         "fold_deg": list(spec.fold_deg), "speed_deg_s": list(spec.max_speed_deg_s),
         "metrics": m, "duration_s": traj.duration,
         "points_per_axis_median": float(np.median(traj.point_counts())),
@@ -252,6 +274,34 @@ def plan(
         err_console.print(f"[red]error:[/] {n_dead} robot(s) still deadlocked after "
                           f"{m['rounds']} round(s); see {out}/targets.csv")
         raise typer.Exit(EXIT_INCOMPLETE)
+
+
+def _plan_stepwise(geom: ArrayGeometry, tg: np.ndarray, settings: PlannerSettings,
+                   rng: np.random.Generator, off: dict, resolve: bool, algorithm: str):
+    """plan_reconfiguration with a progress bar over resolution rounds."""
+    with Progress(TextColumn("[bold]planning[/] {task.description}"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} rounds"), TimeElapsedColumn(),
+                  console=err_console, transient=True) as progress:
+        task = progress.add_task(f"{geom.n_robots} robots, {algorithm}", total=settings.max_rounds + 1)
+
+        def on_round(rnd: int, n_stuck: int) -> None:
+            progress.update(task, completed=rnd + 1,
+                            description=f"{geom.n_robots} robots, {algorithm}: {n_stuck} deadlocked")
+
+        result = plan_reconfiguration(geom, tg, settings, rng, offline=off, resolve=resolve,
+                                      progress=on_round)
+        progress.update(task, completed=settings.max_rounds + 1)
+    return result
+
+
+def field_settings(algorithm: str, gain: float, lambda3: float):
+    """ApfSettings / CapfSettings for the CLI: the segment model (arms, not just tips)."""
+    from planners.apf import ApfSettings
+    from planners.capf import CapfSettings
+
+    if algorithm == "capf":
+        return CapfSettings(model="segment", gain=gain, lambda3=lambda3)
+    return ApfSettings(model="segment", gain=gain)
 
 
 model_app = typer.Typer(no_args_is_help=True, help="The MuJoCo model of an array.")
@@ -396,7 +446,9 @@ def print_summary(summary: dict, out: Path) -> None:
         ("robots (offline)", f"{summary['n_robots']} ({m['n_offline']})"),
         ("fiducials", str(summary["n_fiducials"])),
         ("algorithm / direction", f"{summary['algorithm']} / {summary['direction']}"),
-        ("buffer / step", f"{summary['buffer_mm']:.3f} mm / {summary['step_deg']} deg"),
+        ("buffer / step", f"{summary['buffer_mm']:.3f} mm / " + (
+            f"{summary['step_deg']} deg" if summary["step_deg"] is not None
+            else f"Euler {summary['field']['dt_s']} s")),
         ("efficiency (Eq. 11)", f"{m['efficiency']:.4f}"),
         ("convergence (1st run)", f"{m['convergence']:.4f}"),
         ("targets replaced", str(m["n_replaced"])),

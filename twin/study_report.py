@@ -849,8 +849,7 @@ def _reproduce_line(g: Group) -> str:
     extra = ""
     if p["algorithm"] == "markov":
         extra = f" --greed {p['greed']:g} --phobia {p['phobia']:g}"
-    if p["resolution"] == "none":
-        extra += " --no-resolve"
+    extra += f" --resolve {p['resolution']}"
     if p["direction"] != "reverse":
         extra += f" --direction {p['direction']}"
     same_arms = (abs(p["pitch_mm"] - 22.4) < 1e-9 and abs(p["alpha_length_mm"] - 7.4) < 1e-9

@@ -73,6 +73,8 @@ def test_targets_csv_by_fiber_position(tmp_path):
     (["--algorithm", "astar"], "astar"),
     (["--greed", "2", "--algorithm", "markov"], "greed"),
     (["--offline", "999"], "999"),
+    (["--resolve", "maybe"], "--resolve"),
+    (["--algorithm", "capf", "--lambda3", "5"], "lambda3"),
 ])
 def test_bad_input_is_one_line_nonzero_and_writes_nothing(tmp_path, args, words):
     out = tmp_path / "o"
@@ -117,7 +119,7 @@ def test_existing_output_is_kept_unless_forced(tmp_path):
 def test_unresolved_deadlock_exits_nonzero_but_keeps_the_evidence(tmp_path):
     out = tmp_path / "o"
     r = run("plan", "--layout", "hex:19", "--buffer", "3.5", "--step", "0.5", "--direction", "forward",
-            "--no-resolve", "--seed", "0", "--out", str(out))
+            "--resolve", "none", "--seed", "0", "--out", str(out))
     assert r.returncode == 3, r.stderr
     assert "deadlocked" in r.stderr
     with open(out / "targets.csv") as fh:
@@ -222,3 +224,20 @@ def test_plan_writes_firmware_ready_trajectories_by_default(tmp_path):
     np.testing.assert_allclose(traj.end(), stepwise.end(), atol=1e-6)
     np.testing.assert_allclose(traj.start(), stepwise.start(), atol=1e-6)
     assert json.loads((raw / "summary.json").read_text())["postprocess"] is None
+
+
+@pytest.mark.parametrize("algorithm", ["apf", "capf"])
+def test_field_planners_write_checked_runs(tmp_path, algorithm):
+    """apf / capf go fold -> targets directly; robots that stall are reported, not hidden."""
+    out = tmp_path / algorithm
+    r = run("plan", "--layout", "hex:19", "--algorithm", algorithm, "--seed", "2", "--out", str(out))
+    assert r.returncode in (0, 3), r.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["algorithm"] == algorithm and summary["step_deg"] is None
+    assert summary["field"]["model"] == "segment"
+    assert summary["check2d"]["ok"] and summary["check2d"]["n_collisions"] == 0
+    n_dead = summary["metrics"]["n_deadlocked"]
+    assert (r.returncode == 3) == (n_dead > 0)
+    assert summary["metrics"]["efficiency"] == pytest.approx(1 - n_dead / 19)
+    if algorithm == "capf":
+        assert summary["field"]["lambda3"] == pytest.approx(0.03)
