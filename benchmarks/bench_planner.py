@@ -195,7 +195,8 @@ def run_table3(trials: int, seed: int, greed: float, phobia: float) -> list[Tabl
             row = Table3Row(alg, sigma, step)
             task = prog.add_task(f"Table 3 {ALG_LABEL[alg]} {sigma} mm {step} deg", total=trials)
             geom = ArrayGeometry(spec, layout, sigma)
-            settings = PlannerSettings(algorithm=alg, step_deg=step, greed=greed, phobia=phobia)
+            settings = PlannerSettings(algorithm=alg, step_deg=step, greed=greed, phobia=phobia,
+                                       resolve="replace")  # the paper's Sect. 5.2
             for t in range(trials):
                 # the same targets for GC and MC rows of one (sigma, step)
                 tg = draw_targets(geom, step, np.random.default_rng([seed, 1, ri % 3, t]))

@@ -76,7 +76,7 @@ def make_plan(geom: ArrayGeometry, seed: int, step_deg: float):
     md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
                           step_deg)
     targets = random_targets(geom, rng, margin_mm=md)
-    return plan_reconfiguration(geom, targets, PlannerSettings(step_deg=step_deg), rng)
+    return plan_reconfiguration(geom, targets, PlannerSettings(step_deg=step_deg, resolve="replace"), rng)
 
 
 def med(x) -> float:

@@ -40,7 +40,8 @@ Study file
     greed = 0.9                   # Markov only (greedy points use greed 1, phobia 0)
     phobia = 0.3
     resolution = "replace"        # deadlock resolution: "replace" (Sayres 2021 Sect. 5.2)
-                                  # | "none" (first planner run only)
+                                  # | "search" (state-time search keeps targets, replaces
+                                  # where it fails) | "none" (first planner run only)
     direction = "reverse"         # "reverse" | "forward"
     max_rounds = 50               # resolution rounds
     max_steps = 10000             # default: 1000 deg / step_deg (the paper's rule)
@@ -154,13 +155,13 @@ GRID_KEYS = {
     "algorithm": "greedy | markov (GC / MC accepted)",
     "greed": "a number in [0, 1]",
     "phobia": "a number in [0, 1]",
-    "resolution": "replace | none",
+    "resolution": "replace | search | none",
     "direction": "reverse | forward",
     "max_rounds": "an integer >= 0",
     "max_steps": "an integer >= 1",
 }
 LAYOUTS = ("hex", "sdss-v-fps")
-RESOLUTIONS = ("replace", "none")
+RESOLUTIONS = ("replace", "search", "none")
 ALGORITHM_ALIASES = {"greedy": "greedy", "gc": "greedy", "markov": "markov", "mc": "markov"}
 DIRECTIONS = ("reverse", "forward")
 GRID_DEFAULTS = {
@@ -654,7 +655,8 @@ def _trial_row(point: dict, spec: RobotSpec, seed: int, index: int, check: bool)
         settings = PlannerSettings(algorithm=point["algorithm"], step_deg=point["step_deg"],
                                    greed=point["greed"], phobia=point["phobia"],
                                    direction=point["direction"], max_steps=point["max_steps"],
-                                   max_rounds=point["max_rounds"])
+                                   max_rounds=point["max_rounds"],
+                                   resolve="search" if point["resolution"] == "search" else "replace")
         fold = np.tile(np.asarray(spec.fold_deg, dtype=np.float64), (geom.n_robots, 1))
         clear = geom.pair_clearance(fold)
         if clear.size and clear.min() <= 0.0:
@@ -667,7 +669,7 @@ def _trial_row(point: dict, spec: RobotSpec, seed: int, index: int, check: bool)
                               float(geom.seg_end.max()), settings.step_deg)
         targets = random_targets(geom, rng, margin_mm=md)
         plan = plan_reconfiguration(geom, targets, settings, rng,
-                                    resolve=point["resolution"] == "replace")
+                                    resolve=point["resolution"] != "none")
         m = plan.metrics
         row.update(efficiency=float(m["efficiency"]), convergence=float(m["convergence"]),
                    fold_time_s=float(m["fold_time_s"]), tau_pg_s=float(m["tau_pg_s"]),

@@ -77,7 +77,7 @@ def _rows_by_key(table) -> dict:
     ("[grid]\nbuffer_mm = [2.0, 12.0]\n", ["buffer_mm = 12.0", "pitch_mm / 2 = 11.2"]),
     ("[grid]\nstep_deg = 0\n", ["grid.step_deg = 0", "[0.001, 10]"]),
     ("[grid]\ngreed = 1.5\n", ["grid.greed = 1.5", "[0, 1]"]),
-    ("[grid]\nresolution = 'roadmap'\n", ["grid.resolution = 'roadmap'", "replace | none"]),
+    ("[grid]\nresolution = 'roadmap'\n", ["grid.resolution = 'roadmap'", "replace | search | none"]),
     ("[grid]\nbuffer_mm = []\n", ["grid.buffer_mm = []", "non-empty list"]),
     ("[grid]\nbuffer_mm = [2.0, 2.0]\n", ["without repeated values"]),
     ("[grid]\npreset = 'nope'\n", ["grid.preset = 'nope'", "sdss-v"]),
