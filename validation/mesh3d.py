@@ -120,6 +120,7 @@ from models.robot import RobotSpec
 from planners.trajectory import AXES, Trajectory
 
 __all__ = [
+    "RobotPair",
     "Check3DReport",
     "Collision3D",
     "LinkModels",
@@ -1064,6 +1065,7 @@ class _Exact:
         self.objs = ([fcl.CollisionObject(b) for b in models.bvh],
                      [fcl.CollisionObject(b) for b in models.bvh])
         self.req = fcl.DistanceRequest()
+        self._creq = fcl.CollisionRequest()
         self.n_calls = 0
         self.n_evals = 0
         self.seconds = 0.0
@@ -1111,6 +1113,41 @@ class _Exact:
         self.n_evals += 1
         self.seconds += time.perf_counter() - clock
         return best
+
+    def collides(self, ka: int, pose_a, za: float, kb: int, pose_b, zb: float,
+                 bounds: np.ndarray, min_gap: float = 0.0) -> bool:
+        """True when the two posed links are within ``min_gap`` (solid distance).
+
+        Piece pairs whose bound exceeds ``min_gap`` are skipped; with ``min_gap == 0``
+        FCL's boolean ``collide`` (much cheaper than ``distance``) decides, plus the
+        containment test; otherwise the exact distance is compared.
+        """
+        clock = time.perf_counter()
+        m = self.m
+        u0, v0 = int(m.kind_ptr[ka]), int(m.kind_ptr[kb])
+        nb = int(m.kind_ptr[kb + 1]) - v0
+        npp = (int(m.kind_ptr[ka + 1]) - u0) * nb
+        hit = False
+        tf_a = fcl.Transform(_rot(pose_a[0]), np.array([pose_a[1], pose_a[2], za]))
+        tf_b = fcl.Transform(_rot(pose_b[0]), np.array([pose_b[1], pose_b[2], zb]))
+        for j in np.flatnonzero(bounds[:npp] <= min_gap):
+            u, v = u0 + int(j) // nb, v0 + int(j) % nb
+            oa, ob = self.objs[0][u], self.objs[1][v]
+            oa.setTransform(tf_a)
+            ob.setTransform(tf_b)
+            self.n_calls += 1
+            if min_gap > 0.0:
+                d = float(fcl.distance(oa, ob, self.req, fcl.DistanceResult()))
+                hit = d <= min_gap
+            else:
+                hit = fcl.collide(oa, ob, self._creq, fcl.CollisionResult()) > 0
+            if not hit and float(bounds[j]) <= _CONTAIN_SLACK:
+                hit = self._contained(u, pose_a, za, v, pose_b, zb)
+            if hit:
+                break
+        self.n_evals += 1
+        self.seconds += time.perf_counter() - clock
+        return hit
 
     def _contained(self, u, pose_a, za, v, pose_b, zb) -> bool:
         """One piece inside the other (no surface crossing): a vertex of u in hull v, or
@@ -1488,9 +1525,9 @@ def _refine(p, a, b, da, db, ca, cb, L, thr, res, scene, eval_exact, want, hits,
         col_a, col_b = da <= thr, db <= thr
         split = unresolved = False
         if col_a and col_b:
-            split = 0.5 * (da + db + L * h) > thr and h > res
-            if not split:
-                hits.setdefault(p, []).append((a, b, min(da, db), a if da <= db else b, False))
+            # FCL gives no penetration depth (D = 0 inside), so nothing proves an exit
+            # between two colliding samples: the interval is reported as colliding
+            hits.setdefault(p, []).append((a, b, min(da, db), a if da <= db else b, False))
         elif col_a or col_b:
             split = h > res
             if not split:
@@ -1535,3 +1572,158 @@ def _merge_hits(hits: dict, scene: _Scene, res: float) -> list[Collision3D]:
             out.append(Collision3D(kind, a_id, la, b_id, lb, ts, te, td, d, cons))
     out.sort(key=lambda c: (c.t_start, c.kind, c.robot_a, c.other, c.link_a, c.link_b))
     return out
+
+
+# =====================================================================================
+# Two robots, many configurations (buffer calibration, tests)
+# =====================================================================================
+@njit(cache=True)
+def _pair_bounds(ang, ox, oy, lp_ka, lp_kb, la, kptr, cap, zlim, pptr, pxy, tight_below):
+    """Lower bounds (n, n_lp) of every link pair of robot A (base at the origin) and
+    robot B (base at (ox, oy)) for configurations ``ang`` (n, 4) rad: (aA, bA, aB, bB)."""
+    n = ang.shape[0]
+    out = np.empty((n, len(lp_ka)))
+    for k in range(n):
+        for p in range(len(lp_ka)):
+            ka = lp_ka[p]
+            kb = lp_kb[p]
+            tha, xa, ya = _pose(ka, ang[k, 0], ang[k, 1], la)
+            thb, xb, yb = _pose(kb, ang[k, 2], ang[k, 3], la)
+            best = np.inf
+            for u in range(kptr[ka], kptr[ka + 1]):
+                for v in range(kptr[kb], kptr[kb + 1]):
+                    d = _piece_bound(u, v, tha, xa, ya, thb, xb + ox, yb + oy, cap, zlim,
+                                     pptr, pxy, tight_below)
+                    if d < best:
+                        best = d
+            out[k, p] = best
+    return out
+
+
+@njit(cache=True)
+def _pair_piece_bounds(ang, ox, oy, ka, kb, la, kptr, cap, zlim, pptr, pxy, max_pp):
+    """Poses (n, 6) and piece-pair bounds (n, max_pp) of one link pair (ka of A, kb of B)."""
+    n = ang.shape[0]
+    poses = np.empty((n, 6))
+    bounds = np.full((n, max_pp), np.inf)
+    for k in range(n):
+        tha, xa, ya = _pose(ka, ang[k, 0], ang[k, 1], la)
+        thb, xb, yb = _pose(kb, ang[k, 2], ang[k, 3], la)
+        xb += ox
+        yb += oy
+        poses[k, 0] = tha
+        poses[k, 1] = xa
+        poses[k, 2] = ya
+        poses[k, 3] = thb
+        poses[k, 4] = xb
+        poses[k, 5] = yb
+        j = 0
+        for u in range(kptr[ka], kptr[ka + 1]):
+            for v in range(kptr[kb], kptr[kb + 1]):
+                bounds[k, j] = _piece_bound(u, v, tha, xa, ya, thb, xb, yb, cap, zlim,
+                                            pptr, pxy, np.inf)
+                j += 1
+    return poses, bounds
+
+
+class RobotPair:
+    """Two robots of one design, robot B's base at ``offset_xy`` from robot A's.
+
+    Batches of configurations ``angles`` are ``(n, 4)`` arrays of degrees
+    ``(alpha_A, beta_A, alpha_B, beta_B)``. The link pairs compared are those that can
+    touch at this base distance (:meth:`LinkModels.can_touch`).
+
+    Methods
+    -------
+    bounds(angles) : (n,) lower bounds of the 3D distance (hull prisms, numba), mm
+    distances(angles) : (n,) exact 3D (solid) distances with FCL, mm
+    collides(angles, min_gap_mm) : (n,) bool, exact (bounds first, FCL where undecided)
+    """
+
+    def __init__(self, models: LinkModels, offset_xy, min_gap_mm: float = 0.0):
+        self.models = models
+        self.offset = np.asarray(offset_xy, dtype=np.float64).reshape(2)
+        d = float(np.hypot(*self.offset))
+        kinds = [LINKS.index(k) for k in ROBOT_LINKS]
+        rows = [(ka, kb) for ka in kinds for kb in kinds
+                if models.can_touch(ka, kb, d, min_gap_mm)]
+        arr = np.asarray(rows, dtype=np.int64).reshape(-1, 2)
+        self.lp_ka = np.ascontiguousarray(arr[:, 0])
+        self.lp_kb = np.ascontiguousarray(arr[:, 1])
+        self.link_names = [(LINKS[a], LINKS[b]) for a, b in rows]
+        self._exact = _Exact(models)
+        self._max_pp = int(max(models.n_pieces(k) for k in range(len(LINKS))) ** 2)
+
+    @property
+    def n_fcl_calls(self) -> int:
+        """FCL calls made so far."""
+        return self._exact.n_calls
+
+    def _rad(self, angles) -> np.ndarray:
+        a = np.ascontiguousarray(np.deg2rad(np.asarray(angles, dtype=np.float64).reshape(-1, 4)))
+        if not np.all(np.isfinite(a)):
+            raise field_error(SpecError, "angles", "NaN/inf", "finite angles in degrees",
+                              "RobotPair")
+        return a
+
+    def link_bounds(self, angles) -> np.ndarray:
+        """(n, n_link_pairs) lower bounds per link pair, mm."""
+        m = self.models
+        if len(self.lp_ka) == 0:
+            return np.full((len(np.asarray(angles).reshape(-1, 4)), 0), np.inf)
+        return _pair_bounds(self._rad(angles), float(self.offset[0]), float(self.offset[1]),
+                            self.lp_ka, self.lp_kb, m.l_alpha, m.kind_ptr, m.cap, m.zlim,
+                            m.poly_ptr, m.poly_xy, np.inf)
+
+    def bounds(self, angles) -> np.ndarray:
+        """(n,) lower bound of the 3D distance of the two robots, mm."""
+        lb = self.link_bounds(angles)
+        return lb.min(axis=1) if lb.shape[1] else np.full(lb.shape[0], np.inf)
+
+    def _per_link(self, angles, fn):
+        ang = self._rad(angles)
+        lb = self.link_bounds(angles)
+        m = self.models
+        n = len(ang)
+        out = [None] * n
+        for p in range(len(self.lp_ka)):
+            ka, kb = int(self.lp_ka[p]), int(self.lp_kb[p])
+            poses, pb = _pair_piece_bounds(ang, float(self.offset[0]), float(self.offset[1]),
+                                           ka, kb, m.l_alpha, m.kind_ptr, m.cap, m.zlim,
+                                           m.poly_ptr, m.poly_xy, self._max_pp)
+            for k in range(n):
+                out[k] = fn(out[k], k, p, ka, kb, poses[k], pb[k], lb[k])
+        return out
+
+    def distances(self, angles, with_links: bool = False):
+        """Exact 3D distances (FCL, solid), mm, (n,); with ``with_links`` also the
+        closest link pair ``(link_a, link_b)`` of each configuration."""
+        m = self.models
+
+        def fn(state, k, p, ka, kb, pose, pb, lb_row):
+            best, arg = state if state is not None else (math.inf, -1)
+            if lb_row[p] >= best:
+                return best, arg
+            d = self._exact.distance(ka, pose[:3], m.offset_z[ka], kb, pose[3:],
+                                     m.offset_z[kb], pb)
+            return (d, p) if d < best else (best, arg)
+
+        res = self._per_link(angles, fn)
+        d = np.array([r[0] if r is not None else math.inf for r in res])
+        if with_links:
+            return d, [self.link_names[r[1]] if r is not None and r[1] >= 0 else ("", "")
+                       for r in res]
+        return d
+
+    def collides(self, angles, min_gap_mm: float = 0.0) -> np.ndarray:
+        """(n,) bool: the robots are within ``min_gap_mm`` (solid) at each configuration."""
+        m = self.models
+        gap = float(min_gap_mm)
+
+        def fn(state, k, p, ka, kb, pose, pb, lb_row):
+            if state or lb_row[p] > gap:
+                return bool(state)
+            return self._exact.collides(ka, pose[:3], m.offset_z[ka], kb, pose[3:],
+                                        m.offset_z[kb], pb, gap)
+
+        return np.array([bool(r) for r in self._per_link(angles, fn)], dtype=bool)
