@@ -42,8 +42,8 @@ from numba import njit
 from models.array import ArrayGeometry
 from models.errors import SpecError, field_error
 from models.geometry2d import beta_segment, point_segment_distance, segments_within
-from planners.roadmap import (Arm, ArmTrajectory, RoadmapSettings, default_priority,
-                              prioritized_plan)
+from planners.roadmap import (Arm, ArmTrajectory, RoadmapSettings, prioritized_plan,
+                              priority_search)
 
 DEG = math.pi / 180.0
 
@@ -65,11 +65,11 @@ class SearchResolveSettings:
     n_random_edges : int, random vertex pairs (3-edge paths)
     max_paths : int, paths tried per robot
     max_nodes : int, state-time nodes expanded per robot (all its paths)
-    max_orders : int, priority orders tried per group
+    max_orders : int, prioritized attempts per group and start (each re-orders after
+        the robot that failed)
     resume_edges : bool, see :class:`planners.roadmap.RoadmapSettings`
-    expand : int, rounds of growing a failing group by the non-deadlocked neighbours
-        that block it (two per round); they are re-planned after the robot they block
-        and may leave their stepwise paths to make way
+    expand : int, most non-deadlocked neighbours that may join a group to make way
+        for a robot they block (re-planned after it, free to leave their stepwise paths)
     max_departures : int, times at which a deadlocked robot may leave the stepwise
         motion it made before it got stuck (latest first)
     """
@@ -80,9 +80,9 @@ class SearchResolveSettings:
     n_random_edges: int = 16
     max_paths: int = 40
     max_nodes: int = 60_000
-    max_orders: int = 4
+    max_orders: int = 8
     resume_edges: bool = True
-    expand: int = 3
+    expand: int = 6
     max_departures: int = 4
 
     def __post_init__(self) -> None:
@@ -249,6 +249,24 @@ class AlphaBetaWorld:
         #: robot index -> (obstacle robot indices, collisions met) of its latest arm
         self.hits: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
+    def conflict(self, i: int, tri: ArmTrajectory, j: int, trj: ArmTrajectory) -> bool:
+        """Do robots i and j, on these trajectories (step clock), break the step rule?
+
+        Both are sampled at every step up to the later end (each holds its last
+        configuration); True when their capsules come within ``buffer_i + buffer_j +
+        MD`` at some step. Robots that are not Eq. 4 neighbours never conflict.
+        """
+        g = self.geom
+        if j not in set(int(x) for x in self.neighbours(i)):
+            return False
+        t_last = int(math.ceil(max(tri.t_end, trj.t_end)))
+        ks = np.arange(t_last + 1, dtype=np.float64)
+        sa = _segments_at(float(g.base_xy[i, 0]), float(g.base_xy[i, 1]),
+                          np.ascontiguousarray(tri.at(ks)), self.l_alpha, self.s0, float(g.seg_end[i]))
+        sb = _segments_at(float(g.base_xy[j, 0]), float(g.base_xy[j, 1]),
+                          np.ascontiguousarray(trj.at(ks)), self.l_alpha, self.s0, float(g.seg_end[j]))
+        return bool(_pair_conflict(sa, sb, float(g.buffer[i] + g.buffer[j]) + self.md))
+
     def blockers(self, i: int, exclude=()) -> list[int]:
         """Moving obstacles robot i met most in its latest search, most first."""
         if i not in self.hits:
@@ -343,7 +361,20 @@ class AlphaBetaWorld:
         return Arm(start=np.asarray(start, dtype=np.float64), goal=np.asarray(goal, dtype=np.float64),
                    vmax=v, forbidden=forbidden, collides=collides,
                    lower=self.limits[[0, 2]].copy(), upper=self.limits[[1, 3]].copy(),
-                   t_start=float(t_start), hold_until=float(t_last), t_static=float(t_last))
+                   t_start=float(t_start), hold_until=float(t_last), t_static=float(t_last),
+                   via=self.via)
+
+    def via(self, start: np.ndarray, goal: np.ndarray) -> list[np.ndarray]:
+        """Extra roadmap paths: retract beta fully, turn alpha, then go to the goal.
+
+        A beta arm folded over its own axis (beta = 180 deg) sweeps the smallest disk
+        when alpha turns (at 3.5 mm a robot at beta = 170 deg cannot turn past a folded
+        neighbour, at 180 deg it can). Paths: ``start -> (alpha_s, 180) -> (alpha_g, 180)
+        -> goal`` and, if the goal's beta is not 180, the same with the goal's beta.
+        """
+        b_fold = float(np.clip(180.0, self.limits[2], self.limits[3]))
+        out = [np.array([[start[0], b_fold], [goal[0], b_fold]])]
+        return out
 
 
 #: Coordinate (mm) that puts an obstacle out of reach once it is gone.
@@ -412,7 +443,7 @@ def _prefix(paths: PathSet, i: int, cut: float) -> tuple[np.ndarray, np.ndarray]
 def plan_group(world: AlphaBetaWorld, members: list[int], start: np.ndarray, dest: np.ndarray,
                settings: SearchResolveSettings, rng: np.random.Generator,
                cuts: dict[int, float] | None = None, yielders: dict[int, set] | None = None,
-               order: list[int] | None = None):
+               order: list[int] | None = None, deadlocked: np.ndarray | None = None):
     """Prioritized search of ``members`` (robot indices) to their ``dest`` rows.
 
     Parameters
@@ -422,14 +453,15 @@ def plan_group(world: AlphaBetaWorld, members: list[int], start: np.ndarray, des
         for a yielding neighbour its whole stepwise path) and leave it at any time
         (:attr:`planners.roadmap.Arm.lead_in`); members without a cut are searched from
         ``start`` at step 0.
-    yielders : {robot index: robots it yields to}; non-deadlocked neighbours re-planned
-        so that they can get out of the way. Until planned, a yielder is an obstacle on
-        its current path (as if not re-planned) for every member except those it yields
-        to, which ignore it.
+    yielders : {robot index: robots it yields to}: until it is planned, the member is
+        ignored by those robots (it will have to get out of their way).
     order : priority order (positions in ``members``), default Sabater's Sect. 7.
+    deadlocked : (n,) bool; members that are not deadlocked are neighbours re-planned
+        to make way; default: all members are deadlocked.
 
-    Until it is planned, a deadlocked member is an obstacle along its prefix only and
-    is ignored after it (Sabater's Algorithm 1: later arms avoid earlier ones).
+    Until it is planned (and for robots it does not yield to), a deadlocked member is an
+    obstacle along its prefix only and is ignored after it (Sabater's Algorithm 1: later
+    arms avoid earlier ones); a re-planned neighbour is an obstacle on its current path.
 
     Returns (PrioritizedResult whose arm indices are positions in ``members``, {robot
     index: (steps, angles)} full paths of the planned members).
@@ -437,6 +469,9 @@ def plan_group(world: AlphaBetaWorld, members: list[int], start: np.ndarray, des
     members = [int(i) for i in members]
     cuts = {i: float(c) for i, c in (cuts or {}).items() if c > 0}
     yielders = yielders or {}
+    if deadlocked is None:
+        deadlocked = np.zeros(world.geom.n_robots, dtype=bool)
+        deadlocked[members] = True
     rs = settings.roadmap_settings(world.step_deg)
     prefix = {i: _prefix(world.paths, i, cuts[i]) for i in members if i in cuts}
     begin = {i: world.paths.sample(i, np.array([cuts[i]]))[0] if i in cuts else start[i]
@@ -450,10 +485,10 @@ def plan_group(world: AlphaBetaWorld, members: list[int], start: np.ndarray, des
                 continue
             if b in planned:
                 override[j] = (planned[b].times, planned[b].configs, None)
-            elif j in yielders:
-                if i in yielders[j]:
-                    ignore.add(j)        # j will get out of i's way
-                # else: j's current path, held at its end, as for any other robot
+            elif i in yielders.get(j, ()):
+                ignore.add(j)            # j will get out of i's way
+            elif not deadlocked[j]:
+                pass                     # j's current path, held at its end, as for any robot
             elif j in prefix:
                 override[j] = (*prefix[j], cuts[j])
             else:
@@ -476,45 +511,131 @@ def plan_group(world: AlphaBetaWorld, members: list[int], start: np.ndarray, des
 def _plan_group_growing(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray,
                         dest: np.ndarray, movable: np.ndarray, deadlocked: np.ndarray,
                         settings: SearchResolveSettings, rng: np.random.Generator):
-    """Try to re-plan a deadlocked group, growing it by the neighbours that block it.
+    """Try to re-plan a deadlocked group, letting the robots that block it make way.
 
     Two starts are tried: (1) each deadlocked robot may keep the stepwise motion it made
     before it got stuck (a lead-in it can leave at any time), (2) it is searched from
-    step 0. In each, when a robot X fails, the non-deadlocked robots it met most
-    (``settings.expand`` rounds, two at a time) join the group as yielders: they are
-    re-planned after X, may keep their stepwise path for a while and leave it to get
-    out of X's way, and X ignores them.
+    step 0. In each, up to ``settings.max_orders`` prioritized attempts: when a robot X
+    fails, X moves to the front of the priority order and the two robots it met most
+    (``settings.expand`` of them in all) become yielders to X: X ignores them and they
+    are planned after X, free to leave their paths to make way. A yielder that is not
+    in the group (a neighbour that reached its destination) joins it right after X.
 
     Returns (success, members, {robot: (steps, angles)}, orders tried).
     """
     tried = 0
     members = [int(i) for i in group]
+    one = replace(settings, max_orders=1)
     for keep_prefix in (True, False):
         members = [int(i) for i in group]
         cuts = {i: world.paths.motion_end(i) for i in members} if keep_prefix else {}
         yielders: dict[int, set] = {}
         order = None
-        for grow in range(settings.expand + 1):
-            res, new_paths = plan_group(world, members, start, dest, settings, rng, cuts,
-                                        yielders, order)
-            tried += res.orders_tried
+        seen = set()
+        added = 0
+        for _ in range(settings.max_orders):
+            res, new_paths = plan_group(world, members, start, dest, one, rng, cuts,
+                                        yielders, order, deadlocked)
+            tried += 1
+            seen.add((tuple(res.order), tuple(sorted((k, tuple(sorted(v)))
+                                                     for k, v in yielders.items()))))
             if res.success:
                 return True, members, new_paths, tried
-            if grow == settings.expand or res.failed_arm is None:
+            if res.failed_arm is None:
                 break
             x = members[res.failed_arm]
-            new = [j for j in world.blockers(x, exclude=members)
-                   if movable[j] and not deadlocked[j]][:2]
-            if not new:
+            front = [res.failed_arm]
+            block = [j for j in world.blockers(x) if movable[j] and x not in yielders.get(j, ())
+                     and (j in members or not deadlocked[j])][:2]
+            for j in block:
+                if j not in members:
+                    if added >= settings.expand:
+                        continue
+                    added += 1
+                    cuts[j] = world.paths.motion_end(j)
+                    members.append(j)
+                    front.append(len(members) - 1)
+                yielders.setdefault(j, set()).add(x)
+            # X first, then the neighbours that make way for it, then the others
+            order = front + [a for a in res.order if a not in front]
+            key = (tuple(order), tuple(sorted((k, tuple(sorted(v))) for k, v in yielders.items())))
+            if key in seen:
                 break
-            rest = [a for a in res.order if a != res.failed_arm]
-            for j in new:
-                yielders[j] = {x}
-                cuts[j] = world.paths.motion_end(j)
-                members.append(j)
-            # X first, then the robots that make way for it, then the others
-            order = [res.failed_arm] + list(range(len(members) - len(new), len(members))) + rest
     return False, members, {}, tried
+
+
+@njit(cache=True)
+def _pair_conflict(seg_a, seg_b, th):
+    """True when two robots' segments (T, 4) come within th mm at the same step."""
+    for k in range(seg_a.shape[0]):
+        if segments_within(seg_a[k, 0], seg_a[k, 1], seg_a[k, 2], seg_a[k, 3],
+                           seg_b[k, 0], seg_b[k, 1], seg_b[k, 2], seg_b[k, 3], th):
+            return True
+    return False
+
+
+def _traj_from_path(steps: np.ndarray, angles: np.ndarray) -> ArmTrajectory:
+    return ArmTrajectory(np.asarray(steps, dtype=np.float64), np.asarray(angles, dtype=np.float64),
+                         np.asarray(angles, dtype=np.float64)[[0, -1]], 0, 0, 0)
+
+
+def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, dest: np.ndarray,
+                 movable: np.ndarray, deadlocked: np.ndarray, settings: SearchResolveSettings,
+                 rng: np.random.Generator):
+    """Re-plan one deadlocked group by a search over priorities (Sabater's planner per robot).
+
+    Uses :func:`planners.roadmap.priority_search`: each robot is planned against the
+    robots above it only; pairwise conflicts branch on who yields. A robot that finds
+    no trajectory recruits the non-deadlocked neighbours it met most (two at a time,
+    ``settings.expand`` in all): they join below it, free to leave their stepwise
+    paths (their lead-in) to make way. Two starts are tried: (1) each deadlocked robot
+    may keep, for as long as it likes, the stepwise motion it made before it got stuck;
+    (2) it is searched from step 0.
+
+    Returns (success, robot indices re-planned, {robot: (steps, angles)}, tree nodes).
+    """
+    rs = settings.roadmap_settings(world.step_deg)
+    nodes = 0
+    agents: list[int] = []
+    for keep_prefix in (True, False):
+        agents = [int(i) for i in group]
+        lead = {}
+        if keep_prefix:
+            lead = {i: _prefix(world.paths, i, world.paths.motion_end(i)) for i in agents}
+
+        def make_arm(a: int, higher: dict[int, ArmTrajectory]) -> Arm:
+            i = agents[a]
+            override = {agents[h]: (tr.times, tr.configs, None) for h, tr in higher.items()}
+            ignore = frozenset(agents[b] for b in range(len(agents))
+                               if b != a and b not in higher)
+            arm = world.arm(i, start[i], dest[i], 0.0, ignore, override)
+            if i in lead and lead[i][0][-1] > 0:
+                # it may keep its stepwise motion for a while and leave it at any time
+                arm = replace(arm, lead_in=lead[i])
+            return arm
+
+        def conflict(a: int, tra: ArmTrajectory, b: int, trb: ArmTrajectory) -> bool:
+            return world.conflict(agents[a], tra, agents[b], trb)
+
+        def recruit(a: int) -> list[tuple[int, ArmTrajectory]]:
+            i = agents[a]
+            new = [j for j in world.blockers(i, exclude=agents)
+                   if movable[j] and not deadlocked[j]][:2]
+            out = []
+            for j in new:
+                agents.append(j)
+                lead[j] = _prefix(world.paths, j, world.paths.motion_end(j))
+                out.append((len(agents) - 1, _traj_from_path(world.paths.steps[j],
+                                                            world.paths.angles[j])))
+            return out
+
+        res = priority_search(len(agents), make_arm, conflict, rs, rng, recruit=recruit,
+                              max_nodes=settings.max_orders, max_recruits=settings.expand)
+        nodes += res.nodes
+        if res.success:
+            paths = {agents[a]: (tr.times, tr.configs) for a, tr in res.trajectories.items()}
+            return True, agents, paths, nodes
+    return False, agents, {}, nodes
 
 
 def resolve_groups(geom: ArrayGeometry, paths: PathSet, n_steps: int, groups: list[np.ndarray],
@@ -551,8 +672,8 @@ def resolve_groups(geom: ArrayGeometry, paths: PathSet, n_steps: int, groups: li
     out = SearchOutcome(paths, int(n_steps))
     for group in groups:
         t0 = time.perf_counter()
-        ok, members, new_paths, tried = _plan_group_growing(world, group, start, dest, movable,
-                                                            deadlocked, settings, rng)
+        ok, members, new_paths, tried = search_group(world, group, start, dest, movable,
+                                                     deadlocked, settings, rng)
         if ok:
             for i, (st, an) in new_paths.items():
                 paths.steps[i] = np.asarray(st, dtype=np.float64)

@@ -97,6 +97,8 @@ class Arm:
     lead_in : (times (k,), configs (k, d)) or None, a motion from ``start`` at
         ``t_start`` the arm may follow first and leave at any of its times (e.g. the
         part of an existing plan to keep); its last time is where it ends
+    via : callable ``(start, goal) -> list of (k, d) arrays`` or None: extra roadmap
+        paths ``start -> via[0] -> ... -> goal`` a robot model knows to be useful
     """
 
     start: np.ndarray
@@ -111,6 +113,7 @@ class Arm:
     t_static: float | None = None
     extra_vertices: np.ndarray | None = None
     lead_in: tuple[np.ndarray, np.ndarray] | None = None
+    via: Callable[[np.ndarray, np.ndarray], list] | None = None
 
     @property
     def dim(self) -> int:
@@ -291,8 +294,9 @@ def build_roadmap(arm: Arm, settings: RoadmapSettings, rng: np.random.Generator,
     Vertices are the junctions of a ``settings.grid`` grid over ``[arm.lower,
     arm.upper]`` (plus ``arm.extra_vertices`` and, if asked, the start/goal corners) that
     are not ``forbidden``. Random edges join disjoint vertex pairs whose straight line is
-    feasible. Paths: direct, one vertex, and each random edge in both directions. Paths
-    are sorted by Eq. 5 summed over their edges, ties in random order.
+    feasible. Paths: direct, one vertex, each random edge in both directions, and the
+    arm's own ``via`` paths. Paths are sorted by Eq. 5 summed over their edges, ties in
+    random order.
     """
     d = arm.dim
     if len(settings.grid) != d:
@@ -332,6 +336,10 @@ def build_roadmap(arm: Arm, settings: RoadmapSettings, rng: np.random.Generator,
     for i, j in edges:
         paths.append(np.stack([start, verts[i], verts[j], goal]))
         paths.append(np.stack([start, verts[j], verts[i], goal]))
+    if arm.via is not None:
+        for mid in arm.via(start, goal):
+            mid = np.asarray(mid, dtype=np.float64).reshape(-1, d)
+            paths.append(np.vstack([start[None, :], mid, goal[None, :]]))
     est = np.array([sum(edge_time(p[k], p[k + 1], vmax) for k in range(len(p) - 1)) for p in paths])
     tie = rng.random(len(paths))
     order = np.lexsort((tie, np.round(est, 9)))
@@ -424,6 +432,13 @@ class _PathSearch:
             self.n_seg.append(max(1, int(math.ceil(te / settings.dt - 1e-9))))
         self.n_sub = settings.n_sub
         self.frac = np.arange(1, self.n_sub + 1) / self.n_sub   # sub-check offsets in an action
+        # the three actions (-1, 0, +1) of a node are checked in one black-box call
+        self.offsets = np.concatenate([-self.frac, 0.0 * self.frac, self.frac])
+        self.t_offsets = np.tile(self.frac * settings.dt, 3)
+        self.q0 = [np.asarray(path[e], dtype=np.float64) for e in range(len(path) - 1)]
+        self.dq = [(np.asarray(path[e + 1], dtype=np.float64) - self.q0[e]) / self.n_seg[e]
+                   for e in range(len(path) - 1)]
+        self.moves: dict[tuple[int, int, int], np.ndarray] = {}
 
     def time(self, k: int) -> float:
         return self.arm.t_start + k * self.s.dt
@@ -432,14 +447,24 @@ class _PathSearch:
         q0, q1 = self.path[e], self.path[e + 1]
         return q0 + (i / self.n_seg[e]) * (q1 - q0)
 
-    def transition_clear(self, e: int, i: int, k: int, m: int) -> bool:
-        """Collision-free every dt_col from node (e, i, k) to the next time with motion m."""
-        q0, q1 = self.path[e], self.path[e + 1]
-        fi = (i + m * self.frac) / self.n_seg[e]
-        q = q0[None, :] + fi[:, None] * (q1 - q0)[None, :]
-        t = self.time(k) + self.frac * self.s.dt
-        self.stats.checks += self.n_sub
-        return not bool(np.any(self.arm.collides(q, t)))
+    def moves_clear(self, e: int, i: int, k: int) -> np.ndarray:
+        """(3,) bool: is the action backward / stop / forward from node (e, i, k) clear?
+
+        Clear = ``collides`` is False every ``dt_col`` after the node until the next
+        node time (the node itself was checked when it was reached). Memoised per
+        (e, i, k); positions beyond the edge's ends are clipped (never used).
+        """
+        key = (e, i, k)
+        out = self.moves.get(key)
+        if out is None:
+            fi = np.clip(i + self.offsets, 0.0, float(self.n_seg[e]))
+            q = self.q0[e][None, :] + fi[:, None] * self.dq[e][None, :]
+            t = self.time(k) + self.t_offsets
+            self.stats.checks += t.size
+            hit = np.asarray(self.arm.collides(q, t), dtype=bool).reshape(3, self.n_sub)
+            out = ~hit.any(axis=1)
+            self.moves[key] = out
+        return out
 
     def run(self) -> ArmTrajectory | None:
         s = self.s
@@ -465,10 +490,8 @@ class _PathSearch:
             key = (e, i, ns, m, k) if keyed_ns else (e, i, k)
             if key in parent:
                 continue
-            if par is not None and par[0] == e and par[4] != k:
-                # a real action (not the zero-time hop onto the next edge): check it
-                if not self.transition_clear(e, par[1], par[4], m):
-                    continue   # unsafe transition; the node may still be reached otherwise
+            # children are pushed only when the action reaching them is clear, so a
+            # collision never marks a node: another parent may still reach it safely
             parent[key] = par
             self.stats.nodes += 1
             if s.max_nodes is not None and self.stats.nodes >= s.max_nodes:
@@ -491,13 +514,17 @@ class _PathSearch:
             if k_max is not None and k >= k_max:
                 continue
             static = k_static is not None and k >= k_static
+            clear = None
             for m2, ns2 in neighbour_actions(ns, m, n_stop):
                 if static and m2 != 1:
                     continue          # obstacles have stopped: waiting or backing up is useless
                 i2 = i + m2
                 if i2 < 0 or i2 > self.n_seg[e]:
                     continue          # erratum: discard s outside [0, 1]
-                stack.append(((e, i2, ns2, m2, k + 1), node))
+                if clear is None:
+                    clear = self.moves_clear(e, i, k)
+                if clear[m2 + 1]:
+                    stack.append(((e, i2, ns2, m2, k + 1), node))
         return None
 
     def _trajectory(self, node: tuple, parent: dict, keyed_ns: bool) -> ArmTrajectory:
@@ -797,3 +824,173 @@ def prioritized_plan(n_arms: int, make_arm: Callable[[int, dict[int, ArmTrajecto
         order = nxt
     return PrioritizedResult({}, last_order, False, tried, failed, stats,
                              time.perf_counter() - clock)
+
+
+# ------------------------------------------------------------------------------------
+# Search over priorities (beyond the paper): which arm yields to which
+# ------------------------------------------------------------------------------------
+@dataclass
+class PrioritySearchResult:
+    """Outcome of :func:`priority_search`.
+
+    Attributes
+    ----------
+    trajectories : {arm index: ArmTrajectory}, every arm (recruited ones included) when
+        ``success``; empty otherwise
+    success : bool
+    n_arms : int, arms at the end (initial ones plus recruited ones)
+    priorities : set of (higher, lower) pairs of the solution (or of the last node)
+    nodes : int, search-tree nodes expanded
+    plans : int, single-arm searches run
+    seconds : float
+    """
+
+    trajectories: dict[int, ArmTrajectory]
+    success: bool
+    n_arms: int
+    priorities: set
+    nodes: int
+    plans: int
+    seconds: float = 0.0
+
+
+def priority_search(n_arms: int, make_arm: Callable[[int, dict[int, ArmTrajectory]], Arm],
+                    conflict: Callable[[int, ArmTrajectory, int, ArmTrajectory], bool],
+                    settings: RoadmapSettings, rng: np.random.Generator, *,
+                    recruit: Callable[[int], list[tuple[int, ArmTrajectory]]] | None = None,
+                    max_nodes: int = 24, max_recruits: int = 6) -> PrioritySearchResult:
+    """Depth-first search over pairwise priorities with Sabater's planner for each arm.
+
+    Sabater 2018 plan with one fixed priority order and retry with other orders
+    (Sect. 2.1); searching the orders themselves finds more solutions. This is
+    priority-based search (Ma et al., AAAI 2019) with :func:`plan_arm` as the
+    single-arm planner: each arm is planned against the arms above it in a partial
+    order only (``make_arm(i, higher)``: the trajectories of those arms are its moving
+    obstacles, the others are ignored). The root plans every arm alone. A node whose
+    trajectories conflict pairwise (``conflict``) branches on the first conflict
+    (i, j): "i above j" or "j above i"; the lower arm and every arm below it whose
+    trajectory now conflicts with one above it are planned again (in topological
+    order). A child in which an arm gets no trajectory is dropped, unless ``recruit``
+    brings in new arms for it: ``recruit(i)`` returns ``(index, trajectory)`` of arms
+    that arm i met as fixed obstacles and that may now get out of its way (they are
+    placed below i; indices continue from the current number of arms; at most
+    ``max_recruits`` in all). The first node without conflicts is the solution.
+
+    Parameters
+    ----------
+    n_arms : int, arms at the start
+    make_arm : callable ``(i, higher) -> Arm``; ``higher`` = {index: trajectory} of the
+        arms above i, its moving obstacles. Goal conflicts: the planner raises
+        ``hold_until`` to the latest end among them.
+    conflict : callable ``(i, traj_i, j, traj_j) -> bool``, do arms i and j collide
+        (each holding its last configuration after its end)
+    settings : RoadmapSettings; rng : numpy Generator
+    recruit : see above (optional)
+    max_nodes : search-tree nodes expanded at most
+    max_recruits : arms recruited at most
+
+    Returns
+    -------
+    PrioritySearchResult
+    """
+    clock = time.perf_counter()
+    counter = {"plans": 0, "n": n_arms, "recruits": 0}
+    base_paths: dict[int, ArmTrajectory] = {}
+
+    def closure_up(prio: dict[int, set], i: int) -> set:
+        out, todo = set(), list(prio.get(i, ()))
+        while todo:
+            h = todo.pop()
+            if h not in out:
+                out.add(h)
+                todo.extend(prio.get(h, ()))
+        return out
+
+    def plan(i: int, prio: dict[int, set], paths: dict[int, ArmTrajectory]) -> ArmTrajectory | None:
+        higher = {h: paths[h] for h in closure_up(prio, i)}
+        arm = make_arm(i, higher)
+        if higher:
+            arm = replace(arm, hold_until=max(arm.hold_until, max(t.t_end for t in higher.values())))
+        counter["plans"] += 1
+        tr, _ = plan_arm(arm, settings, rng)
+        return tr
+
+    def plan_or_recruit(i, prio, paths) -> bool:
+        """Plan arm i; if it fails, recruit the arms that blocked it and try once more."""
+        tr = plan(i, prio, paths)
+        if tr is None and recruit is not None and counter["recruits"] < max_recruits:
+            new = recruit(i)[: max_recruits - counter["recruits"]]
+            if new:
+                for j, trj in new:
+                    counter["recruits"] += 1
+                    counter["n"] = max(counter["n"], j + 1)
+                    base_paths[j] = trj
+                    paths[j] = trj
+                    prio.setdefault(j, set()).add(i)
+                tr = plan(i, prio, paths)
+        if tr is None:
+            return False
+        paths[i] = tr
+        return True
+
+    def update(prio: dict[int, set], paths: dict[int, ArmTrajectory], low: int) -> bool:
+        """Re-plan ``low`` and, in topological order, every arm below it that conflicts."""
+        todo = [low] + [a for a in range(counter["n"]) if a in paths and low in closure_up(prio, a)]
+        done = set()
+        while todo:
+            # the next arm none of whose higher arms is still waiting to be updated
+            pick = next(a for a in todo if not (closure_up(prio, a) & set(todo) - {a}))
+            todo.remove(pick)
+            if pick in done:
+                continue
+            done.add(pick)
+            higher = closure_up(prio, pick)
+            if pick == low or any(conflict(pick, paths[pick], h, paths[h]) for h in higher):
+                if not plan_or_recruit(pick, prio, paths):
+                    return False
+                # arms recruited meanwhile sit below pick: check them too
+                for a in range(counter["n"]):
+                    if a in paths and a not in done and a not in todo and pick in closure_up(prio, a):
+                        todo.append(a)
+        return True
+
+    def first_conflict(paths: dict[int, ArmTrajectory]):
+        keys = sorted(paths)
+        for x, i in enumerate(keys):
+            for j in keys[x + 1:]:
+                if conflict(i, paths[i], j, paths[j]):
+                    return i, j
+        return None
+
+    prio: dict[int, set] = {}
+    paths: dict[int, ArmTrajectory] = {}
+    for i in range(n_arms):
+        if not plan_or_recruit(i, prio, paths):
+            return PrioritySearchResult({}, False, counter["n"], set(), 0, counter["plans"],
+                                        time.perf_counter() - clock)
+    stack = [(prio, paths)]
+    nodes = 0
+    last_pairs: set = set()
+    while stack and nodes < max_nodes:
+        prio, paths = stack.pop()
+        nodes += 1
+        last_pairs = {(h, lo) for lo, hs in prio.items() for h in hs}
+        c = first_conflict(paths)
+        if c is None:
+            return PrioritySearchResult(dict(paths), True, counter["n"], last_pairs, nodes,
+                                        counter["plans"], time.perf_counter() - clock)
+        children = []
+        for hi, lo in (c, c[::-1]):
+            if lo in closure_up(prio, hi):
+                continue              # would make the order cyclic
+            p2 = {k: set(v) for k, v in prio.items()}
+            p2.setdefault(lo, set()).add(hi)
+            q2 = dict(paths)
+            if update(p2, q2, lo):
+                cost = sum(t.t_end for t in q2.values())
+                children.append((cost, p2, q2))
+        # depth first, the cheaper child first
+        for _, p2, q2 in sorted(children, key=lambda x: -x[0]):
+            stack.append((p2, q2))
+    return PrioritySearchResult({}, False, counter["n"], last_pairs, nodes, counter["plans"],
+                                time.perf_counter() - clock)
