@@ -509,19 +509,9 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
     report("boundary", 1.0)
     if req_c.size:
         w = int(np.argmax(req_c))
-        b_star = float(req_c[w])
-        wang, wdir = ang_c[w], int(dir_c[w])
-        d3, links = pairs[wdir].distances(wang[None, :], with_links=True)
-        worst = {"alpha_a": float(wang[0]), "beta_a": float(wang[1]), "alpha_b": float(wang[2]),
-                 "beta_b": float(wang[3]), "direction_deg": float(dirs[wdir]),
-                 "d2_mm": float(pair_segment_distances(spec, offs[wdir], wang[None, :],
-                                                       b_star)[0]),
-                 "d3_mm": float(d3[0]), "links": "-".join(links[0]), "required_mm": b_star}
+        b_star, wang, wdir = float(req_c[w]), ang_c[w], int(dir_c[w])
     else:
-        b_star = 0.0
-        worst = {"alpha_a": math.nan, "beta_a": math.nan, "alpha_b": math.nan,
-                 "beta_b": math.nan, "direction_deg": math.nan, "d2_mm": math.nan,
-                 "d3_mm": math.nan, "links": "none", "required_mm": 0.0}
+        b_star, wang, wdir = 0.0, None, -1
 
     # -- (c) angular errors -------------------------------------------------------------
     t0 = time.perf_counter()
@@ -533,31 +523,52 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
     corners = np.array([[sa * ea, sb * eb, sc * ea, sd * eb] for sa in (-1, 1) for sb in (-1, 1)
                         for sc in (-1, 1) for sd in (-1, 1)], dtype=float)
 
-    def b_of(err: np.ndarray, starts: int, rounds: int) -> float:
+    def b_of(err: np.ndarray, starts: int, rounds: int):
         """B(e): the best of the candidates, then a local search in the actual
-        configuration c' (kept in 3D collision) raising required(c' - e)."""
+        configuration c' (kept in 3D collision) raising required(c' - e).
+        Returns (B, c', direction index)."""
         if not len(s_ang):
-            return 0.0
+            return 0.0, None, -1
         vals = _required(spec, s_off, s_ang - err, hi_mm)
+        i = int(np.argmax(vals))
+        best = (float(vals[i]), s_ang[i], int(s_dir[i]))
         if rounds == 0:
-            return float(vals.max())
+            return best
         top = _distinct_top(vals, s_ang, s_dir, starts)
         fn = lambda a, d: _required(spec, offs[d], a - err, hi_mm)  # noqa: E731
-        _, best, _, _, ne = _climb(fn, classify, s_ang[top], s_dir[top], rng, rounds=rounds,
-                                   batch=16, step_deg=0.5)
+        ang_b, val_b, _, _, ne = _climb(fn, classify, s_ang[top], s_dir[top], rng,
+                                        rounds=rounds, batch=16, step_deg=0.5)
         counts["mc"] += ne
-        return max(float(vals.max()), float(best.max()))
+        j = int(np.argmax(val_b))
+        if val_b[j] > best[0]:
+            best = (float(val_b[j]), ang_b[j], int(s_dir[top][j]))
+        return best
 
     counts = {"mc": 0}
+    # (a) once more: the same local search without errors, from the candidates
+    b0, a0, d0 = b_of(np.zeros(4), 4 * mc_starts, 4 * max(mc_rounds, 10))
+    if a0 is not None and b0 > b_star:
+        b_star, wang, wdir = b0, a0, d0
     samples = np.empty(n_draws)
     for k in range(n_draws):
-        samples[k] = b_of(draws[k], mc_starts, mc_rounds)
+        samples[k] = b_of(draws[k], mc_starts, mc_rounds)[0]
         if progress is not None and k % 50 == 0:
             report("monte carlo", k / n_draws)
-    corner = max(b_of(c, 4 * mc_starts, 4 * max(mc_rounds, 10)) for c in corners)
+    corner = max(b_of(c, 4 * mc_starts, 4 * max(mc_rounds, 10))[0] for c in corners)
     b_p = float(np.quantile(samples, probability, method="higher"))
     seconds["monte_carlo"] = time.perf_counter() - t0
     report("monte carlo", 1.0)
+    if wang is not None:
+        d3, links = pairs[wdir].distances(wang[None, :], with_links=True)
+        worst = {"alpha_a": float(wang[0]), "beta_a": float(wang[1]), "alpha_b": float(wang[2]),
+                 "beta_b": float(wang[3]), "direction_deg": float(dirs[wdir]),
+                 "d2_mm": float(pair_segment_distances(spec, offs[wdir], wang[None, :],
+                                                       b_star)[0]),
+                 "d3_mm": float(d3[0]), "links": "-".join(links[0]), "required_mm": b_star}
+    else:
+        worst = {"alpha_a": math.nan, "beta_a": math.nan, "alpha_b": math.nan,
+                 "beta_b": math.nan, "direction_deg": math.nan, "d2_mm": math.nan,
+                 "d3_mm": math.nan, "links": "none", "required_mm": 0.0}
 
     # -- scatter: exact 3D distances of close configurations ------------------------------
     t0 = time.perf_counter()
