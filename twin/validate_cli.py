@@ -1,0 +1,206 @@
+"""`rfp-twin validate` and `rfp-twin calibrate-buffer`: the 3D (FCL) checks on the CLI.
+
+``register(app)`` adds both commands to a typer app (``twin/cli.py`` calls it). The
+module also runs alone: ``python -m twin.validate_cli validate RUN_DIR``.
+
+Commands
+--------
+validate RUN_DIR [--geometry FILE]
+    Check the run's trajectory against the 3D collision meshes (FCL); writes
+    ``RUN_DIR/validation.json``; exit 4 on any 3D collision.
+calibrate-buffer --preset sdss-v --out DIR
+    Calibrate the 2D collision buffer against the 3D meshes; writes
+    ``DIR/buffer_calibration.md``, ``DIR/calibration.json`` and PNG figures.
+
+Exit codes (as twin/cli.py): 0 clear, 2 bad input (one-line message naming the field /
+file and what is allowed), 4 collision.
+"""
+from __future__ import annotations
+
+import functools
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from models.errors import RfpError, SpecError, field_error
+
+__all__ = ["register", "validate", "calibrate_buffer", "main", "VALIDATION_JSON",
+           "EXIT_BAD_INPUT", "EXIT_COLLISION"]
+
+#: File written into the run folder by `validate`.
+VALIDATION_JSON = "validation.json"
+#: Exit codes (as twin/cli.py).
+EXIT_BAD_INPUT = 2
+EXIT_COLLISION = 4
+
+console = Console()
+err_console = Console(stderr=True)
+
+
+def _one_line_errors(fn):
+    """Turn rfp-twin errors into one line on stderr and exit code 2, however the
+    command is mounted."""
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except RfpError as exc:
+            err_console.print(f"[red]error:[/] {escape(str(exc))}", highlight=False,
+                              soft_wrap=True)
+            raise typer.Exit(EXIT_BAD_INPUT)
+    return wrapper
+
+
+def _geometry_for_run(geometry: Optional[str], spec, summary: dict):
+    """The meshes for a run and where they came from: ``--geometry`` (preset name or
+    TOML file with a ``[geometry]`` table), else the preset / file the run was planned
+    with, else the defaults of its spec."""
+    from models.geometry import geometry_for_spec, load_geometry
+
+    if geometry is not None:
+        return load_geometry(geometry, spec), str(geometry)
+    src = str(summary.get("spec", ""))
+    if src.startswith("preset "):
+        return load_geometry(src[len("preset "):], spec), src
+    if src.endswith(".toml") and Path(src).is_file():
+        return load_geometry(src, spec), src
+    return geometry_for_spec(spec), f"defaults for {spec.source}"
+
+
+def _command_line() -> str:
+    return " ".join(["rfp-twin"] + sys.argv[1:])
+
+
+@_one_line_errors
+def validate(
+    run: Path = typer.Argument(..., help="Run folder written by `rfp-twin plan`."),
+    geometry: Optional[str] = typer.Option(
+        None, "--geometry", help="Robot TOML (or preset) whose [geometry] table gives the "
+        "meshes, e.g. your CAD exports [default: the preset the run was planned with]."),
+    fold: bool = typer.Option(False, "--fold", help="Check targets -> fold "
+                              "(trajectories_to_fold.json) instead of fold -> targets."),
+    min_gap: float = typer.Option(0.0, help="3D distance at or below which links collide, mm."),
+    resolution: float = typer.Option(1e-5, help="Time resolution of the bisection, s."),
+    out: Optional[Path] = typer.Option(None, help="Report file [default: RUN/validation.json]."),
+) -> None:
+    """Check a run against the 3D collision meshes (FCL); exit 4 on any 3D collision."""
+    from planners.trajectory import atomic_write_text
+    from twin.run_dir import TRAJECTORIES, TRAJECTORIES_TO_FOLD, load_run
+    from validation.mesh3d import validate_trajectory
+
+    spec, layout, traj, summary = load_run(run, to_fold=fold)
+    geom, geom_label = _geometry_for_run(geometry, spec, summary)
+    with Progress(TextColumn("[bold]3D check[/] {task.description}"), BarColumn(),
+                  TimeElapsedColumn(), console=err_console, transient=True) as progress:
+        task = progress.add_task(f"{traj.n_robots} robots", total=1.0)
+
+        def on_progress(stage: str, done: int, total: int) -> None:
+            frac = done / total if total else 1.0
+            frac = 0.3 * frac if stage == "capsule bounds" else 0.3 + 0.7 * frac
+            progress.update(task, completed=min(frac, 1.0),
+                            description=f"{traj.n_robots} robots: {stage}")
+
+        report = validate_trajectory(traj, spec, layout, geom, min_gap_mm=min_gap,
+                                     resolution_s=resolution, progress=on_progress)
+    data = {"command": _command_line(), "run": str(run),
+            "trajectory": TRAJECTORIES_TO_FOLD if fold else TRAJECTORIES, **report.to_dict(),
+            "geometry": geom_label}
+    report.geometry = geom_label
+    path = out if out is not None else Path(run) / VALIDATION_JSON
+    atomic_write_text(path, json.dumps(data, indent=1))
+    console.print(report.table(), highlight=False)
+    console.print(f"wrote {path}", highlight=False)
+    if not report.ok:
+        err_console.print(f"[red]error:[/] {len(report.collisions)} 3D collision(s); see {path}",
+                          highlight=False)
+        raise typer.Exit(EXIT_COLLISION)
+
+
+@_one_line_errors
+def calibrate_buffer(
+    preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
+    out: Path = typer.Option(..., help="Folder for the report and figures."),
+    geometry: Optional[str] = typer.Option(
+        None, "--geometry", help="Robot TOML (or preset) whose [geometry] table gives the "
+        "meshes [default: the preset's]."),
+    layout: Optional[str] = typer.Option(
+        None, help="Layout giving pitch and neighbour directions: sdss-v-fps | sdss-v-547 | "
+        "hex:N | CSV [default: hex directions at the preset's pitch]."),
+    samples: int = typer.Option(131072, help="Uniform (Sobol) configurations."),
+    draws: int = typer.Option(2000, help="Monte Carlo draws of the angular errors."),
+    probability: float = typer.Option(0.99, help="Probability of 3D safety for the Monte Carlo "
+                                      "buffer, (0, 1]."),
+    alpha_error: Optional[float] = typer.Option(None, help="Alpha angular error bound, deg "
+                                                "[default: preset, 1.50 for SDSS-V]."),
+    beta_error: Optional[float] = typer.Option(None, help="Beta angular error bound, deg "
+                                               "[default: preset, 1.48 for SDSS-V]."),
+    seed: int = typer.Option(0, help="Seed of the samples and the Monte Carlo."),
+) -> None:
+    """Calibrate the 2D collision buffer against the 3D meshes: smallest safe buffer,
+    space wasted by the 2D model, Monte Carlo over angular errors; markdown + figures."""
+    from models.geometry import load_geometry
+    from models.robot import load_spec
+    from validation.buffer import calibrate_buffer as run_calibration
+    from validation.buffer import write_report
+
+    spec = load_spec(preset)
+    geom = load_geometry(geometry if geometry is not None else preset, spec)
+    lay = None
+    if layout is not None:
+        from twin.cli import resolve_layout
+
+        lay = resolve_layout(layout, spec.pitch_mm)
+    errs = (spec.angular_error_deg[0] if alpha_error is None else alpha_error,
+            spec.angular_error_deg[1] if beta_error is None else beta_error)
+    if out.exists() and not out.is_dir():
+        raise field_error(SpecError, "--out", str(out), "a folder (new or existing)")
+    stages = {"uniform samples": (0.0, 0.1), "boundary": (0.1, 0.2), "monte carlo": (0.2, 0.95)}
+    clock = time.perf_counter()
+    with Progress(TextColumn("[bold]calibrating[/] {task.description}"), BarColumn(),
+                  TextColumn("{task.percentage:>3.0f}%"), TimeElapsedColumn(),
+                  console=err_console, transient=True) as progress:
+        task = progress.add_task(spec.name, total=1.0)
+
+        def on_progress(stage: str, frac: float) -> None:
+            lo, hi = stages.get(stage, (0.95, 1.0))
+            progress.update(task, completed=lo + (hi - lo) * frac,
+                            description=f"{spec.name}: {stage}")
+
+        cal = run_calibration(spec, geom, lay, n_samples=samples, n_draws=draws,
+                              probability=probability, angular_error_deg=errs, seed=seed,
+                              progress=on_progress)
+        progress.update(task, completed=0.97, description=f"{spec.name}: report")
+        paths = write_report(cal, out, command=_command_line())
+    console.print(cal.table(), highlight=False)
+    console.print(f"report: {paths['markdown']} ({time.perf_counter() - clock:.1f} s)",
+                  highlight=False)
+    for f in paths["figures"]:
+        console.print(f"  figure: {f}", highlight=False)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``validate`` and ``calibrate-buffer`` to a typer app."""
+    app.command("validate")(validate)
+    app.command("calibrate-buffer")(calibrate_buffer)
+
+
+validate_app = typer.Typer(add_completion=False, no_args_is_help=True,
+                           pretty_exceptions_enable=False,
+                           help="3D validation (FCL) and collision-buffer calibration.")
+register(validate_app)
+
+
+def main() -> None:
+    """Run alone (``python -m twin.validate_cli``)."""
+    validate_app()
+
+
+if __name__ == "__main__":
+    main()
