@@ -5,7 +5,9 @@ of :class:`models.geometry.RobotGeometry` (``Link.collision``, the pieces
 :mod:`models.mjcf` turns into collision geoms). Each piece becomes one FCL
 ``BVHModel`` (OBBRSS), built once per link *kind* (``body``, ``alpha``, ``beta``,
 ``fiducial``): every robot shares them, only transforms differ. A robot is the links
-``body``, ``alpha`` and ``beta``; a fiducial the link ``fiducial``.
+``body``, ``alpha`` and ``beta``; a fiducial the link ``fiducial``. (The MuJoCo model
+gives the fixed body no collision geom; here it is checked too, which can only add
+findings: with the procedural meshes it never comes near anything.)
 
 What is reported (:class:`Check3DReport`)
 -----------------------------------------
