@@ -326,14 +326,17 @@ class BufferCalibration:
     def table(self) -> str:
         w = self.worst
         lines = [
-            f"buffer calibration ({self.spec_name}, {self.geometry}): pitch {self.pitch_mm:.3f} mm, "
+            f"buffer calibration ({self.spec_name}, {self.geometry}): pitch "
+            f"{self.pitch_mm:.3f} mm, "
             f"directions {', '.join(f'{d:g}' for d in self.directions_deg)} deg, "
-            f"{self.n_samples} uniform + {self.n_boundary} boundary configurations, seed {self.seed}",
+            f"{self.n_samples} uniform + {self.n_boundary} boundary configurations, "
+            f"seed {self.seed}",
             f"(a) smallest buffer with 2D-safe => 3D-safe: {self.safe_buffer_mm:.4f} mm "
             f"(uniform samples alone {self.safe_buffer_uniform_mm:.4f} mm; mesh envelope "
             f"{self.envelope_mm:.4f} mm)",
             f"    worst: A ({w['alpha_a']:.3f}, {w['beta_a']:.3f}) B ({w['alpha_b']:.3f}, "
-            f"{w['beta_b']:.3f}) deg, direction {w['direction_deg']:g} deg, D2 {w['d2_mm']:.4f} mm, "
+            f"{w['beta_b']:.3f}) deg, direction {w['direction_deg']:g} deg, "
+            f"D2 {w['d2_mm']:.4f} mm, "
             f"links {w['links']}",
             f"(b) wasted share of the 2D-forbidden space at {self.spec_buffer_mm:g} mm: "
             f"{self.wasted_at(self.spec_buffer_mm):.3f}",
@@ -574,7 +577,8 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
     t0 = time.perf_counter()
     d2_all = pair_segment_distances(spec, offs[dir_u], ang_u, float(spec.buffer_mm))
     close = np.flatnonzero(d2_all < 4.0 * max(float(buffers.max()), b_star) + 2.0)
-    pick = rng.choice(close, size=min(n_scatter, close.size), replace=False) if close.size else close
+    pick = (rng.choice(close, size=min(n_scatter, close.size), replace=False) if close.size
+            else close)
     sc_d2 = d2_all[pick]
     sc_d3 = np.empty(len(pick))
     for k, pr in enumerate(pairs):
@@ -630,8 +634,8 @@ def _climb(objective, classify, ang0: np.ndarray, dir0: np.ndarray, rng, rounds:
         live = np.flatnonzero(step >= 1e-4)
         if live.size == 0:
             break
-        prop = (np.repeat(cur[live], batch, axis=0)
-                + rng.normal(0.0, 1.0, (live.size * batch, 4)) * np.repeat(step[live], batch)[:, None])
+        noise = rng.normal(0.0, 1.0, (live.size * batch, 4))
+        prop = np.repeat(cur[live], batch, axis=0) + noise * np.repeat(step[live], batch)[:, None]
         pdir = np.repeat(d[live], batch)
         owner = np.repeat(live, batch)
         pv = objective(prop, pdir)
@@ -705,7 +709,8 @@ def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "")
     ax.scatter(d2[~col], d3[~col], s=4, alpha=0.5, label="clear in 3D")
     ax.scatter(d2[col], d3[col], s=6, color="tab:red", label="colliding in 3D (distance 0)")
     for b, style, lab in ((cal.safe_buffer_mm, "-", f"2 b* = {2 * cal.safe_buffer_mm:.3f} mm"),
-                          (cal.spec_buffer_mm, "--", f"2 x preset buffer {cal.spec_buffer_mm:g} mm"),
+                          (cal.spec_buffer_mm, "--",
+                           f"2 x preset buffer {cal.spec_buffer_mm:g} mm"),
                           (cal.mc_buffer_mm, ":", f"2 b_p = {2 * cal.mc_buffer_mm:.3f} mm")):
         ax.axvline(2 * b, color="k", linestyle=style, linewidth=1, label=lab)
     ax.set_xlabel("2D model distance D2 (beta segments), mm")

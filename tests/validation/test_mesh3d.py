@@ -122,7 +122,9 @@ def _polygon_distance(p, q) -> float:
         return False
 
     def cross(a, b, c, d):
-        o = lambda p_, q_, r_: np.sign((q_[0] - p_[0]) * (r_[1] - p_[1]) - (q_[1] - p_[1]) * (r_[0] - p_[0]))  # noqa: E731,E501
+        def o(p_, q_, r_):
+            return np.sign((q_[0] - p_[0]) * (r_[1] - p_[1]) - (q_[1] - p_[1]) * (r_[0] - p_[0]))
+
         return o(a, b, c) != o(a, b, d) and o(c, d, a) != o(c, d, b)
 
     if inside(p, q) or inside(q, p):
@@ -154,7 +156,9 @@ def test_hull_prism_bound_is_the_polygon_distance_and_never_above_it():
         ox, oy = rng.normal(size=2) * 4
         lb = _poly_lb(0, 1, math.cos(t1), math.sin(t1), 0.0, 0.0, math.cos(t2), math.sin(t2),
                       ox, oy, pptr, pxy)
-        rot = lambda t: np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])  # noqa: E731
+        def rot(t):
+            return np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])
+
         ref = _polygon_distance(a @ rot(t1).T, b @ rot(t2).T + [ox, oy])
         gaps.append(ref - lb)
     gaps = np.array(gaps)
