@@ -72,6 +72,8 @@ class SearchResolveSettings:
         for a robot they block (re-planned after it, free to leave their stepwise paths)
     max_departures : int, times at which a deadlocked robot may leave the stepwise
         motion it made before it got stuck (latest first)
+    search : "sweep" (earliest arrival, one time layer at a time) | "dfs" (Sabater's
+        depth-first search); see :class:`planners.roadmap.RoadmapSettings`
     """
 
     action_deg: float = 2.0
@@ -84,6 +86,7 @@ class SearchResolveSettings:
     resume_edges: bool = True
     expand: int = 6
     max_departures: int = 4
+    search: str = "sweep"
 
     def __post_init__(self) -> None:
         where = "SearchResolveSettings"
@@ -101,7 +104,7 @@ class SearchResolveSettings:
                                n_random_edges=self.n_random_edges, corner_vertices=True,
                                max_paths=self.max_paths, max_nodes=self.max_nodes,
                                resume_edges=self.resume_edges, edge_check_step=step_deg,
-                               max_departures=self.max_departures)
+                               max_departures=self.max_departures, search=self.search)
 
 
 # ------------------------------------------------------------------------------------

@@ -145,6 +145,9 @@ class RoadmapSettings:
         checked against ``forbidden``; None = the motion of one ``dt_col`` at ``vmax``
     max_departures : int, times tried to leave an arm's ``lead_in`` (latest first);
         ``max_paths`` applies to each
+    search : "dfs" (Sabater's depth-first search, Algorithms 3-6) | "sweep" (the same
+        state-time graph explored one time layer at a time: earliest arrival, much
+        faster on hard searches; unlimited ``n_stop`` only)
     """
 
     dt: float = 1.0
@@ -160,9 +163,14 @@ class RoadmapSettings:
     resume_edges: bool = False
     edge_check_step: float | None = None
     max_departures: int = 4
+    search: str = "dfs"
 
     def __post_init__(self) -> None:
         where = "RoadmapSettings"
+        if self.search not in ("dfs", "sweep"):
+            raise field_error(SpecError, "search", self.search, "dfs, sweep", where)
+        if self.search == "sweep" and self.n_stop is not None:
+            raise field_error(SpecError, "n_stop", self.n_stop, "None with search = sweep", where)
         if not (math.isfinite(self.dt) and self.dt > 0):
             raise field_error(SpecError, "dt", self.dt, "a finite number > 0", where)
         if self.dt_col is not None:
@@ -553,6 +561,135 @@ class _PathSearch:
         return ArmTrajectory(times, configs, self.path.copy(), int(chain[-1][2]), n_go, n_stop)
 
 
+class _PathSweep:
+    """Earliest-arrival search along one roadmap path, one time layer at a time.
+
+    Beyond the paper (``RoadmapSettings.search = "sweep"``, unlimited ``n_stop`` only):
+    the same state-time graph as :class:`_PathSearch` (positions ``i / n_seg`` along
+    each edge, actions backward / stop / forward of one ``dt``, collisions every
+    ``dt_col``), explored breadth first in time: the set of positions reachable at
+    time ``t_start + k dt`` is advanced to ``k + 1`` by checking the three actions of
+    every reachable position in one black-box call. Each (position, time) is checked
+    once, as in the depth-first search, but per time layer instead of per node, which
+    makes hard searches (long waits, dead ends) much cheaper; the trajectory reaches
+    the goal at the earliest time the graph allows. The edges of the path are joined
+    into one sequence of positions (a vertex is crossed without a stop).
+    """
+
+    def __init__(self, arm: Arm, path: np.ndarray, settings: RoadmapSettings,
+                 stats: SearchStats, goal_clear_after: float):
+        self.arm = arm
+        self.path = path
+        self.s = settings
+        self.stats = stats
+        self.goal_clear_after = goal_clear_after
+        vmax = np.asarray(arm.vmax, dtype=np.float64)
+        pts = [np.asarray(path[0], dtype=np.float64)[None, :]]
+        self.vertex_pos = []
+        for e in range(len(path) - 1):
+            n = max(1, int(math.ceil(edge_time(path[e], path[e + 1], vmax) / settings.dt - 1e-9)))
+            f = np.arange(1, n + 1)[:, None] / n
+            pts.append(path[e][None, :] + f * (path[e + 1] - path[e])[None, :])
+            self.vertex_pos.append(sum(len(p) for p in pts) - 1)
+        self.Q = np.vstack(pts)                      # (P + 1, d) configurations
+        self.D = np.diff(self.Q, axis=0)             # (P, d) forward step from each position
+        self.n_sub = settings.n_sub
+        self.frac = np.arange(1, self.n_sub + 1) / self.n_sub
+
+    def time(self, k: int) -> float:
+        return self.arm.t_start + k * self.s.dt
+
+    def run(self) -> ArmTrajectory | None:
+        s = self.s
+        P = len(self.Q) - 1
+        t_static = self.arm.t_static
+        k_static = None if t_static is None else max(0, math.ceil((t_static - self.arm.t_start)
+                                                                 / s.dt - 1e-9))
+        k_max = None if s.t_max is None else math.floor((s.t_max - self.arm.t_start) / s.dt + 1e-9)
+        if k_static is not None:
+            k_bound = k_static + P + 1            # after t_static only forward moves help
+            k_max = k_bound if k_max is None else min(k_max, k_bound)
+        self.stats.checks += 1
+        if bool(np.any(self.arm.collides(self.Q[:1], np.array([self.arm.t_start])))):
+            return None
+        reach = np.zeros(P + 1, dtype=bool)
+        reach[0] = True
+        came: list[np.ndarray] = []                 # per layer: action that reached each position
+        frac = self.frac
+        k = 0
+        while True:
+            if reach[P] and self.time(k) > self.goal_clear_after - 1e-12:
+                return self._trajectory(came, k)
+            if k_max is not None and k >= k_max:
+                return None
+            R = np.flatnonzero(reach)
+            self.stats.nodes += R.size
+            if s.max_nodes is not None and self.stats.nodes >= s.max_nodes:
+                self.stats.budget_exhausted = True
+                return None
+            static = k_static is not None and k >= k_static
+            moves = [1] if static else [1, 0, -1]
+            qs, sizes, srcs = [], [], []
+            for m in moves:
+                if m == 1:
+                    src = R[R < P]
+                    step = self.D[src]
+                elif m == -1:
+                    src = R[R > 0]
+                    step = -self.D[src - 1]
+                else:
+                    src = R
+                    step = np.zeros((R.size, self.Q.shape[1]))
+                q = self.Q[src][:, None, :] + frac[None, :, None] * step[:, None, :]
+                qs.append(q.reshape(-1, self.Q.shape[1]))
+                sizes.append(src.size)
+                srcs.append(src)
+            q_all = np.concatenate(qs)
+            t_all = np.tile(self.time(k) + frac * s.dt, sum(sizes))
+            self.stats.checks += t_all.size
+            hit = np.asarray(self.arm.collides(q_all, t_all), dtype=bool).reshape(-1, self.n_sub)
+            clear = ~hit.any(axis=1)
+            nxt = np.zeros(P + 1, dtype=bool)
+            how = np.zeros(P + 1, dtype=np.int8)
+            at = 0
+            for m, n_m, src in zip(moves, sizes, srcs):
+                ok = src[clear[at:at + n_m]] + m
+                at += n_m
+                new = ok[~nxt[ok]]                # the first action listed wins: forward
+                nxt[new] = True
+                how[new] = m
+            if not nxt.any():
+                return None
+            came.append(how)
+            reach = nxt
+            k += 1
+
+    def _trajectory(self, came: list[np.ndarray], k_end: int) -> ArmTrajectory:
+        P = len(self.Q) - 1
+        pos = [P]
+        acts = []
+        p = P
+        for k in range(k_end, 0, -1):
+            m = int(came[k - 1][p])
+            acts.append(m)
+            p -= m
+            pos.append(p)
+        pos.reverse()
+        acts.reverse()
+        times = self.time(0) + self.s.dt * np.arange(len(pos))
+        configs = self.Q[np.array(pos)]
+        ns = 0
+        prev = 0
+        for m in acts:
+            if prev != 0 and m != prev:
+                ns += 1
+            prev = m
+        crossed = sum(1 for v in self.vertex_pos[:-1] if v in set(pos))
+        n_go = sum(1 for m in acts if m != 0)
+        times, configs = _compress(times, configs)
+        return ArmTrajectory(times, configs, self.path.copy(), ns + crossed, n_go, len(acts) - n_go)
+
+
 def _compress(times: np.ndarray, configs: np.ndarray, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
     """Drop breakpoints that linear interpolation reproduces (and zero-time duplicates)."""
     keep = [0]
@@ -662,7 +799,8 @@ def _search_roadmap(arm: Arm, roadmap: Roadmap, settings: RoadmapSettings, stats
             continue
         tried += 1
         stats.paths_tried += 1
-        result = _PathSearch(arm, path, settings, stats, clear_after).run()
+        searcher = _PathSweep if settings.search == "sweep" else _PathSearch
+        result = searcher(arm, path, settings, stats, clear_after).run()
         if result is not None:
             return result
         if stats.budget_exhausted:

@@ -1,0 +1,146 @@
+"""Deadlock resolution that keeps targets (planners/resolve_search.py), checked by the
+independent 2D checker (validation.checker2d), never by the planner itself."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from models.array import ArrayGeometry
+from models.errors import SpecError
+from models.kinematics import inverse
+from models.layout import Layout
+from models.robot import load_spec
+from planners.plan import OFFLINE, REACHED, REPLACED
+from planners.resolve_search import AlphaBetaWorld, PathSet, SearchResolveSettings
+from planners.solver import PlannerSettings, plan_reconfiguration
+from planners.stepwise import max_displacement
+from planners.trajectory import Trajectory
+from tests.planners.conftest import make_geom, plan_random
+from validation.checker2d import check_trajectory
+
+
+def assert_clear(geom: ArrayGeometry, plan) -> None:
+    report = check_trajectory(Trajectory.from_plan(plan), geom.spec, geom.layout, geom.buffer_mm)
+    assert report.ok, report.table()
+    assert report.min_clearance_mm > 0.0
+
+
+@pytest.fixture(scope="module")
+def deadlock_547():
+    """547 grid, 2.5 mm, 0.25 deg, seed 5: greedy leaves two deadlocked groups (6 robots)."""
+    geom = ArrayGeometry(load_spec("sdss-v"), Layout.sdss_v_grid(), 2.5)
+    targets, plan = plan_random(geom, 5, resolver="search", step_deg=0.25)
+    return geom, targets, plan
+
+
+def test_a_real_deadlock_is_resolved_with_every_target_kept(deadlock_547):
+    geom, targets, plan = deadlock_547
+    m = plan.metrics
+    assert m["convergence"] < 1.0                 # the first greedy run deadlocked ...
+    assert m["n_search_groups"] >= 1 and m["n_search_robots"] >= 2
+    assert m["n_replaced"] == 0 and m["n_replace_groups"] == 0 and m["rounds"] == 0
+    assert m["efficiency"] == 1.0 and m["n_deadlocked"] == 0
+    assert plan.complete and np.all(plan.status == REACHED)     # ... and nobody gave up
+    np.testing.assert_array_equal(plan.targets, targets)
+    np.testing.assert_allclose(plan.end(), targets, atol=1e-9)
+    np.testing.assert_allclose(plan.start(), np.tile(geom.spec.fold_deg, (geom.n_robots, 1)))
+    assert m["search_s"] > 0.0
+    assert_clear(geom, plan)
+
+
+def test_replacement_on_the_same_targets_gives_targets_away(deadlock_547):
+    geom, targets, _ = deadlock_547
+    _, plan = plan_random(geom, 5, resolver="replace", step_deg=0.25)
+    assert plan.metrics["n_replaced"] >= 1 and plan.metrics["efficiency"] < 1.0
+    assert plan.metrics["n_search_groups"] == 0
+
+
+def test_search_paths_run_on_the_step_clock_at_the_robot_speed(deadlock_547):
+    geom, _, plan = deadlock_547
+    assert np.allclose(plan.path_step, np.round(plan.path_step))      # whole steps
+    speed = Trajectory.from_plan(plan).max_speed()
+    assert speed.max() <= max(geom.spec.max_speed_deg_s) * (1 + 1e-9)
+    assert plan.metrics["fold_time_s"] == pytest.approx(plan.n_steps * plan.step_s)
+
+
+def test_markov_deadlock_is_resolved_too():
+    geom = make_geom(169, 3.5)
+    _, plan = plan_random(geom, 3, resolver="search", algorithm="markov", step_deg=0.25)
+    assert plan.complete
+    assert plan.metrics["n_search_groups"] + plan.metrics["n_replace_groups"] >= 0
+    assert_clear(geom, plan)
+
+
+def walled_in_case():
+    """7 robots at 2.5 mm: the centre robot must turn alpha from 200 deg down to 10 deg
+    (no wrap: limits [0, 360]) and an offline neighbour's fiber sits 10 mm above its
+    base, where its elbow passes at alpha = 90 deg: no plan can fold it. Returns
+    (geom, targets, offline, centre index)."""
+    geom = make_geom(7, 2.5)
+    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
+    rel = geom.base_xy - geom.base_xy[c]
+    o = int(np.argmin(np.hypot(rel[:, 0] - 11.2, rel[:, 1] - 19.4)))   # upper-right neighbour
+    tip = geom.base_xy[c] + np.array([0.0, 10.0])
+    spec = geom.spec
+    o_ang = inverse(geom.base_xy[[o]], tip[None, :], spec.alpha_length_mm, spec.beta_length_mm)[0]
+    targets = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
+    targets[c] = (200.0, 150.0)
+    targets[o] = o_ang
+    return geom, targets, {int(geom.robot_ids[o]): tuple(o_ang)}, c
+
+
+def test_an_impossible_group_falls_back_to_replacing_its_target():
+    geom, targets, offline, c = walled_in_case()
+    settings = PlannerSettings(step_deg=0.5)
+    plan = plan_reconfiguration(geom, targets, settings, np.random.default_rng(0), offline=offline)
+    m = plan.metrics
+    assert m["n_search_failed_groups"] >= 1       # the search could not fold it ...
+    assert m["n_replace_groups"] >= 1 and m["n_replaced"] == 1      # ... so it got a new target
+    assert plan.status[c] == REPLACED and plan.complete
+    assert np.sum(plan.status == OFFLINE) == 1
+    assert_clear(geom, plan)
+
+
+def test_search_budget_exhausted_also_falls_back(deadlock_547):
+    geom, targets, _ = deadlock_547
+    starved = PlannerSettings(step_deg=0.25, search=SearchResolveSettings(max_nodes=1, expand=0))
+    plan = plan_reconfiguration(geom, targets, starved, np.random.default_rng(5))
+    m = plan.metrics
+    assert m["n_search_failed_groups"] >= 1 and m["n_replaced"] >= 1
+    assert plan.complete
+    assert_clear(geom, plan)
+
+
+def test_collides_keeps_the_step_rule_margin():
+    """The adapter's collides() flags capsules nearer than 2 buffer + MD (Eqs. 6-7)."""
+    geom = make_geom(7, 2.0)
+    step = 0.5
+    spec = geom.spec
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
+    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
+    paths = PathSet([np.array([0.0])] * geom.n_robots, [fold[i][None, :] for i in range(geom.n_robots)])
+    world = AlphaBetaWorld(geom, paths, np.ones(geom.n_robots, bool), md, step)
+    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
+    right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
+    arm = world.arm(c, fold[c], fold[c])
+    # the centre robot, stretched (beta 0), turns away from its folded right neighbour:
+    # the clearance goes from negative through MD to several mm
+    alphas = np.linspace(0.0, 40.0, 4001)
+    q = np.column_stack([alphas, np.zeros(alphas.size)])
+    ang = np.tile(fold, (alphas.size, 1, 1))
+    ang[:, c] = q
+    clear = np.array([geom.pair_clearance(a)[np.all(np.sort(geom.pairs, 1) == sorted((c, right)), 1)][0]
+                      for a in ang])
+    hit = arm.collides(q, np.zeros(alphas.size))
+    assert np.all(hit[clear <= md - 1e-6]) and not np.any(hit[clear > md + 1e-6])
+    assert arm.forbidden(np.array([[361.0, 10.0], [10.0, -1.0]])).all()     # joint limits
+    assert not arm.forbidden(np.array([[10.0, 170.0]])).any()
+
+
+def test_resolve_setting_is_checked():
+    with pytest.raises(SpecError, match="field 'resolve'.*allowed: search, replace"):
+        PlannerSettings(resolve="magic")
+    with pytest.raises(SpecError, match="'action_deg'"):
+        SearchResolveSettings(action_deg=0.0)
