@@ -143,8 +143,10 @@ def calibrate_buffer(
                                                "[default: preset, 1.48 for SDSS-V]."),
     seed: int = typer.Option(0, help="Seed of the samples and the Monte Carlo."),
 ) -> None:
-    """Calibrate the 2D collision buffer against the 3D meshes: smallest safe buffer,
-    space wasted by the 2D model, Monte Carlo over angular errors; markdown + figures."""
+    """Calibrate the 2D collision buffer against the 3D meshes (markdown + figures).
+
+    Smallest buffer for which 2D-safe implies 3D-safe, space wasted by the 2D model per
+    buffer, and a Monte Carlo over angular errors."""
     from models.geometry import load_geometry
     from models.robot import load_spec
     from validation.buffer import calibrate_buffer as run_calibration
