@@ -27,6 +27,7 @@ $(STAMP): pyproject.toml | sysdeps
 demo: $(STAMP)
 	rm -rf $(DEMO_OUT)
 	$(BIN)/rfp-twin plan --preset sdss-v --out $(DEMO_OUT) --seed 1
+	$(BIN)/rfp-twin validate $(DEMO_OUT)
 	$(BIN)/rfp-twin simulate $(DEMO_OUT)
 	$(BIN)/rfp-twin render $(DEMO_OUT) --out $(DEMO_OUT)/fold.mp4 --speedup 2
 	$(BIN)/rfp-twin record $(DEMO_OUT) --out $(DEMO_OUT)/run.rrd

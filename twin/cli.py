@@ -309,6 +309,9 @@ app.add_typer(model_app, name="model")
 from twin.study_cli import study_app  # noqa: E402  (a sub-app: `rfp-twin study ...`)
 
 app.add_typer(study_app, name="study")
+from twin.validate_cli import register as _register_validation  # noqa: E402
+
+_register_validation(app)  # `rfp-twin validate RUN`, `rfp-twin calibrate-buffer`
 
 
 @model_app.command("export")
