@@ -63,13 +63,13 @@ class SearchResolveSettings:
         (stepwise plans stop and restart freely; post-processing smooths them)
     grid : (n_alpha, n_beta) roadmap grid over the joint limits
     n_random_edges : int, random vertex pairs (3-edge paths)
-    max_paths : int, paths tried per robot
+    max_paths : int, paths tried per robot and departure
     max_nodes : int, state-time nodes expanded per robot (all its paths)
-    max_orders : int, prioritized attempts per group and start (each re-orders after
-        the robot that failed)
+    max_orders : int, nodes of the search over priorities per group and start
+        (:func:`planners.roadmap.priority_search`)
     resume_edges : bool, see :class:`planners.roadmap.RoadmapSettings`
     expand : int, most non-deadlocked neighbours that may join a group to make way
-        for a robot they block (re-planned after it, free to leave their stepwise paths)
+        for a robot they block (re-planned below it, free to leave their stepwise paths)
     max_departures : int, times at which a deadlocked robot may leave the stepwise
         motion it made before it got stuck (latest first)
     search : "sweep" (earliest arrival, one time layer at a time) | "dfs" (Sabater's
@@ -78,13 +78,13 @@ class SearchResolveSettings:
 
     action_deg: float = 2.0
     n_stop: int | None = None
-    grid: tuple[int, int] = (13, 13)
+    grid: tuple[int, int] = (25, 25)
     n_random_edges: int = 16
-    max_paths: int = 40
-    max_nodes: int = 60_000
-    max_orders: int = 8
+    max_paths: int = 300
+    max_nodes: int = 200_000
+    max_orders: int = 24
     resume_edges: bool = True
-    expand: int = 6
+    expand: int = 8
     max_departures: int = 4
     search: str = "sweep"
 
@@ -169,14 +169,18 @@ def _segments_at(base_x, base_y, ang, l_alpha, s0, s1):
 
 
 @njit(cache=True)
-def _collides(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_th, out, hits):
+def _collides(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, out, hits):
     """Moving-obstacle test of one robot.
 
     q : (m, 2) deg; t : (m,) step index (whole numbers; clamped to the table)
     obs_seg : (T + 1, n_obs, 4) obstacle beta segments at each step, mm
+    obs_rho : (T + 1, n_obs) farthest point of each obstacle segment from its base, mm
+    obs_d : (n_obs,) base-to-base distance, mm
     obs_th : (n_obs,) clearance threshold per obstacle (buffer_i + buffer_j + MD), mm
     out : (m,) bool, written
     hits : (n_obs,) int64, incremented for the first obstacle each colliding query meets
+
+    Two base disks farther apart than the threshold are skipped before the exact test.
     """
     n_t = obs_seg.shape[0]
     n_obs = obs_seg.shape[1]
@@ -187,14 +191,27 @@ def _collides(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_th, out, hits):
         elif k >= n_t:
             k = n_t - 1
         x0, y0, x1, y1 = beta_segment(bx, by, q[r, 0], q[r, 1], l_alpha, s0, s1)
+        rho = math.sqrt(max((x0 - bx) ** 2 + (y0 - by) ** 2, (x1 - bx) ** 2 + (y1 - by) ** 2))
         hit = False
         for o in range(n_obs):
+            if obs_d[o] - rho - obs_rho[k, o] > obs_th[o]:
+                continue
             if segments_within(x0, y0, x1, y1, obs_seg[k, o, 0], obs_seg[k, o, 1],
                                obs_seg[k, o, 2], obs_seg[k, o, 3], obs_th[o]):
                 hit = True
                 hits[o] += 1
                 break
         out[r] = hit
+
+
+@njit(cache=True)
+def _reach_of(seg, bx, by):
+    """(T,) farthest distance of each segment (T, 4) from the base (bx, by), mm."""
+    out = np.empty(seg.shape[0])
+    for k in range(seg.shape[0]):
+        out[k] = math.sqrt(max((seg[k, 0] - bx) ** 2 + (seg[k, 1] - by) ** 2,
+                               (seg[k, 2] - bx) ** 2 + (seg[k, 3] - by) ** 2))
+    return out
 
 
 @njit(cache=True)
@@ -319,6 +336,8 @@ class AlphaBetaWorld:
         t_last = int(math.ceil(max(ends + [t_start], default=0.0)))
         ks = np.arange(t_last + 1, dtype=np.float64)
         obs_seg = np.empty((t_last + 1, len(movers), 4))
+        obs_rho = np.empty((t_last + 1, len(movers)))
+        obs_d = np.empty(len(movers))
         obs_th = np.empty(len(movers))
         for o, j in enumerate(movers):
             until = None
@@ -330,8 +349,13 @@ class AlphaBetaWorld:
             obs_seg[:, o, :] = _segments_at(float(g.base_xy[j, 0]), float(g.base_xy[j, 1]),
                                             np.ascontiguousarray(ang), self.l_alpha, self.s0,
                                             float(g.seg_end[j]))
+            bjx, bjy = float(g.base_xy[j, 0]), float(g.base_xy[j, 1])
+            obs_rho[:, o] = _reach_of(obs_seg[:, o, :], bjx, bjy)
+            obs_d[o] = math.hypot(bjx - bx, bjy - by)
             if until is not None:
-                obs_seg[ks > until, o, :] = _FAR_MM     # gone: no longer an obstacle
+                gone = ks > until
+                obs_seg[gone, o, :] = _FAR_MM           # gone: no longer an obstacle
+                obs_rho[gone, o] = -_FAR_MM
             obs_th[o] = bi + float(g.buffer[j]) + self.md
         st_seg = np.empty((len(statics), 4))
         st_th = np.empty(len(statics))
@@ -351,7 +375,7 @@ class AlphaBetaWorld:
         def collides(q: np.ndarray, t: np.ndarray) -> np.ndarray:
             out = np.empty(q.shape[0], dtype=np.bool_)
             _collides(np.ascontiguousarray(q, dtype=np.float64), np.asarray(t, dtype=np.float64),
-                      bx, by, l_alpha, s0, s1, obs_seg, obs_th, out, hits)
+                      bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, out, hits)
             return out
 
         def forbidden(q: np.ndarray) -> np.ndarray:

@@ -64,6 +64,7 @@ from dataclasses import dataclass, field, replace
 from typing import Callable, Sequence
 
 import numpy as np
+from numba import njit
 
 from models.errors import SpecError, field_error
 
@@ -561,6 +562,69 @@ class _PathSearch:
         return ArmTrajectory(times, configs, self.path.copy(), int(chain[-1][2]), n_go, n_stop)
 
 
+@njit(cache=True)
+def _sweep_queries(reach, Q, D, frac, static, t_k, dt):
+    """Configurations and times to check for every action of every reachable position.
+
+    reach : (P + 1,) bool; Q : (P + 1, d) positions; D : (P, d) forward steps;
+    frac : (K,) sub-check offsets in (0, 1]. Actions forward, stop, backward (forward
+    only when ``static``). Returns q (n K, d), t (n K,), src (n,) position and act (n,)
+    action of each block of K rows.
+    """
+    P = Q.shape[0] - 1
+    d = Q.shape[1]
+    K = frac.shape[0]
+    n = 0
+    for p in range(P + 1):
+        if reach[p]:
+            n += (p < P) + (0 if static else 1 + (p > 0))
+    q = np.empty((n * K, d))
+    t = np.empty(n * K)
+    src = np.empty(n, dtype=np.int64)
+    act = np.empty(n, dtype=np.int64)
+    b = 0
+    for m in (1, 0, -1):
+        if static and m != 1:
+            break
+        for p in range(P + 1):
+            if not reach[p] or (m == 1 and p == P) or (m == -1 and p == 0):
+                continue
+            src[b] = p
+            act[b] = m
+            for j in range(K):
+                r = b * K + j
+                for c in range(d):
+                    step = 0.0
+                    if m == 1:
+                        step = D[p, c]
+                    elif m == -1:
+                        step = -D[p - 1, c]
+                    q[r, c] = Q[p, c] + frac[j] * step
+                t[r] = t_k + frac[j] * dt
+            b += 1
+    return q, t, src, act
+
+
+@njit(cache=True)
+def _sweep_advance(hit, src, act, K, P):
+    """Positions reached at the next time and the action that reached each (forward
+    first, then stop, then backward: blocks are ordered that way)."""
+    nxt = np.zeros(P + 1, dtype=np.bool_)
+    how = np.zeros(P + 1, dtype=np.int8)
+    for b in range(src.shape[0]):
+        ok = True
+        for j in range(K):
+            if hit[b * K + j]:
+                ok = False
+                break
+        if ok:
+            p2 = src[b] + act[b]
+            if not nxt[p2]:
+                nxt[p2] = True
+                how[p2] = act[b]
+    return nxt, how
+
+
 class _PathSweep:
     """Earliest-arrival search along one roadmap path, one time layer at a time.
 
@@ -622,42 +686,16 @@ class _PathSweep:
                 return self._trajectory(came, k)
             if k_max is not None and k >= k_max:
                 return None
-            R = np.flatnonzero(reach)
-            self.stats.nodes += R.size
+            self.stats.nodes += int(reach.sum())
             if s.max_nodes is not None and self.stats.nodes >= s.max_nodes:
                 self.stats.budget_exhausted = True
                 return None
             static = k_static is not None and k >= k_static
-            moves = [1] if static else [1, 0, -1]
-            qs, sizes, srcs = [], [], []
-            for m in moves:
-                if m == 1:
-                    src = R[R < P]
-                    step = self.D[src]
-                elif m == -1:
-                    src = R[R > 0]
-                    step = -self.D[src - 1]
-                else:
-                    src = R
-                    step = np.zeros((R.size, self.Q.shape[1]))
-                q = self.Q[src][:, None, :] + frac[None, :, None] * step[:, None, :]
-                qs.append(q.reshape(-1, self.Q.shape[1]))
-                sizes.append(src.size)
-                srcs.append(src)
-            q_all = np.concatenate(qs)
-            t_all = np.tile(self.time(k) + frac * s.dt, sum(sizes))
+            q_all, t_all, src, act = _sweep_queries(reach, self.Q, self.D, frac, static,
+                                                     self.time(k), s.dt)
             self.stats.checks += t_all.size
-            hit = np.asarray(self.arm.collides(q_all, t_all), dtype=bool).reshape(-1, self.n_sub)
-            clear = ~hit.any(axis=1)
-            nxt = np.zeros(P + 1, dtype=bool)
-            how = np.zeros(P + 1, dtype=np.int8)
-            at = 0
-            for m, n_m, src in zip(moves, sizes, srcs):
-                ok = src[clear[at:at + n_m]] + m
-                at += n_m
-                new = ok[~nxt[ok]]                # the first action listed wins: forward
-                nxt[new] = True
-                how[new] = m
+            hit = np.asarray(self.arm.collides(q_all, t_all), dtype=np.bool_)
+            nxt, how = _sweep_advance(hit, src, act, self.n_sub, P)
             if not nxt.any():
                 return None
             came.append(how)
