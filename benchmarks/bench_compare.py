@@ -1,0 +1,121 @@
+#!/usr/bin/env python
+"""Every planner on the same scenarios: one comparison table (issue #6).
+
+Scenarios: SDSS-V preset (alpha 7.4 mm, beta 15 mm, pitch 22.4 mm), hex grids of N
+robots, buffer B, seeded random right-armed targets that every planner can reach (clear
+by the potential fields' barrier plus 0.5 mm, which also covers the stepwise step rule).
+Planners, all from the folded state to the same targets:
+
+- ``greedy/replace``: Sayres 2021 GC, reverse, one new target per deadlocked group;
+- ``greedy/search``: the same with the state-time search that keeps targets;
+- ``markov/search``: MC (greed 0.9, phobia 0.3) with the search;
+- ``apf`` / ``capf``: Makarem 2014 / Macktoobian 2019 fields on the beta capsules
+  (segment model, gain 1, lambda3 0.03), direct fold -> targets, no resolution.
+
+Per planner: mean efficiency (Eq. 11), convergence of the first run, fold (motion) time,
+tau_pg (planner kernel), the whole call, and the collisions that the independent
+checker (validation/checker2d.py) finds at the planning buffer in the stepwise / field
+output (before any post-processing).
+
+    .venv/bin/python benchmarks/bench_compare.py                     # N 37, 91; 2.5 mm; 5 seeds
+    .venv/bin/python benchmarks/bench_compare.py --robots 37 91 169 --buffer 3.0 --trials 10
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from bench_common import command_line, cpu_model, load_average, now, python_version  # noqa: E402
+from models.array import ArrayGeometry  # noqa: E402
+from models.layout import Layout  # noqa: E402
+from models.robot import load_spec  # noqa: E402
+from planners.apf import ApfSettings, apf_target_margin_mm, plan_apf_reconfiguration  # noqa: E402
+from planners.capf import CapfSettings  # noqa: E402
+from planners.solver import PlannerSettings, plan_reconfiguration  # noqa: E402
+from planners.targets import random_targets  # noqa: E402
+from planners.trajectory import Trajectory  # noqa: E402
+from validation.checker2d import check_trajectory  # noqa: E402
+
+PLANNERS = ("greedy/replace", "greedy/search", "markov/search", "apf", "capf")
+STEP_DEG = 0.1
+
+
+def run_planner(name: str, geom: ArrayGeometry, targets: np.ndarray, seed: int) -> tuple[dict, Trajectory, float]:
+    """(metrics, trajectory fold -> targets, wall seconds of the planning call)."""
+    t0 = time.perf_counter()
+    if name in ("apf", "capf"):
+        field = CapfSettings(model="segment") if name == "capf" else ApfSettings(model="segment")
+        plan, res = plan_apf_reconfiguration(geom, targets, field, algorithm=name)
+        m = res.metrics()
+        traj = res.trajectory
+    else:
+        alg, resolve = name.split("/")
+        settings = PlannerSettings(algorithm=alg, step_deg=STEP_DEG, resolve=resolve)
+        plan = plan_reconfiguration(geom, targets, settings, np.random.default_rng([seed, 9]))
+        m = plan.metrics
+        traj = Trajectory.from_plan(plan)
+    return dict(m), traj, time.perf_counter() - t0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--robots", type=int, nargs="+", default=[37, 91], help="hex grid sizes")
+    ap.add_argument("--buffer", type=float, default=2.5, help="collision buffer, mm")
+    ap.add_argument("--trials", type=int, default=5, help="seeded scenarios per grid size")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+
+    spec = load_spec("sdss-v").with_overrides(buffer_mm=args.buffer)
+    print(f"command: {command_line()}")
+    print(f"machine: {cpu_model()}, Python {python_version()}; load {load_average()}; {now()}")
+    rows = []
+    for n in args.robots:
+        geom = ArrayGeometry(spec, Layout.hex_grid_positions(n, spec.pitch_mm), args.buffer)
+        margin = apf_target_margin_mm(geom, ApfSettings(model="segment")) + 0.5
+        acc = {p: {"eff": [], "conv": [], "fold": [], "pg": [], "call": [], "coll": 0, "bad": 0}
+               for p in PLANNERS}
+        for t in range(args.trials):
+            seed = args.seed * 1000 + t
+            targets = random_targets(geom, np.random.default_rng([seed, n]), margin_mm=margin)
+            for p in PLANNERS:
+                m, traj, wall = run_planner(p, geom, targets, seed)
+                rep = check_trajectory(traj, spec, geom.layout, args.buffer)
+                a = acc[p]
+                a["eff"].append(m["efficiency"])
+                a["conv"].append(m["convergence"])
+                a["fold"].append(m["fold_time_s"])
+                a["pg"].append(m["tau_pg_s"])
+                a["call"].append(wall)
+                a["coll"] += len(rep.collisions)
+                a["bad"] += int(not rep.ok)
+                print(f"  N {n} trial {t} {p:15s} eff {m['efficiency']:.4f} conv {m['convergence']:.4f} "
+                      f"fold {m['fold_time_s']:.2f} s call {wall:.2f} s collisions {len(rep.collisions)}",
+                      flush=True)
+        for p in PLANNERS:
+            a = acc[p]
+            rows.append([str(n), p, str(args.trials), f"{np.mean(a['eff']):.4f}",
+                         f"{min(a['eff']):.4f}", f"{np.mean(a['conv']):.4f}",
+                         f"{np.mean(a['fold']):.2f}", f"{np.median(a['pg']):.3f}",
+                         f"{np.median(a['call']):.3f}", f"{a['coll']} ({a['bad']} plans)"])
+    header = ["N", "planner", "trials", "efficiency mean", "min", "convergence (1st run)",
+              "fold / motion s", "tau_pg s median", "call s median", "checker2d collisions"]
+    print()
+    print(f"Command: `{command_line()}`\n")
+    print(f"Machine: nproc 2, {cpu_model()}; load average at end {load_average()}; {now()}.\n")
+    print(f"SDSS-V preset, buffer {args.buffer} mm, step {STEP_DEG} deg (stepwise), "
+          f"same targets for every planner.\n")
+    print("| " + " | ".join(header) + " |")
+    print("|" + "---|" * len(header))
+    for r in rows:
+        print("| " + " | ".join(r) + " |")
+
+
+if __name__ == "__main__":
+    main()
