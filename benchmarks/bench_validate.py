@@ -87,7 +87,7 @@ def make_fold(layout_name: str, seed: int, step_deg: float = 0.1):
                           step_deg)
     targets = random_targets(geom, rng, margin_mm=md)
     t0 = time.perf_counter()
-    plan = plan_reconfiguration(geom, targets, PlannerSettings(step_deg=step_deg), rng,
+    plan = plan_reconfiguration(geom, targets, PlannerSettings(step_deg=step_deg, resolve="replace"), rng,
                                 resolve=True)
     traj, post = postprocess(plan, geom)
     return spec, lay, traj.reversed(), time.perf_counter() - t0
