@@ -630,11 +630,12 @@ def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, de
         if keep_prefix:
             lead = {i: _prefix(world.paths, i, world.paths.motion_end(i)) for i in agents}
 
-        def make_arm(a: int, higher: dict[int, ArmTrajectory]) -> Arm:
+        def make_arm(a: int, higher: dict[int, ArmTrajectory], arms: frozenset) -> Arm:
             i = agents[a]
             override = {agents[h]: (tr.times, tr.configs, None) for h, tr in higher.items()}
-            ignore = frozenset(agents[b] for b in range(len(agents))
-                               if b != a and b not in higher)
+            # robots of this search node not above i are ignored; robots recruited in
+            # another branch are not in this node: their current paths are obstacles
+            ignore = frozenset(agents[b] for b in arms if b != a and b not in higher)
             arm = world.arm(i, start[i], dest[i], 0.0, ignore, override)
             if i in lead and lead[i][0][-1] > 0:
                 # it may keep its stepwise motion for a while and leave it at any time
@@ -644,10 +645,10 @@ def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, de
         def conflict(a: int, tra: ArmTrajectory, b: int, trb: ArmTrajectory) -> bool:
             return world.conflict(agents[a], tra, agents[b], trb)
 
-        def recruit(a: int) -> list[tuple[int, ArmTrajectory]]:
+        def recruit(a: int, limit: int) -> list[tuple[int, ArmTrajectory]]:
             i = agents[a]
             new = [j for j in world.blockers(i, exclude=agents)
-                   if movable[j] and not deadlocked[j]][:2]
+                   if movable[j] and not deadlocked[j]][:min(2, limit)]
             out = []
             for j in new:
                 agents.append(j)
@@ -661,7 +662,7 @@ def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, de
         nodes += res.nodes
         if res.success:
             paths = {agents[a]: (tr.times, tr.configs) for a, tr in res.trajectories.items()}
-            return True, agents, paths, nodes
+            return True, [agents[a] for a in sorted(res.trajectories)], paths, nodes
     return False, agents, {}, nodes
 
 

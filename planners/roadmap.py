@@ -1030,10 +1030,11 @@ class PrioritySearchResult:
     seconds: float = 0.0
 
 
-def priority_search(n_arms: int, make_arm: Callable[[int, dict[int, ArmTrajectory]], Arm],
+def priority_search(n_arms: int,
+                    make_arm: Callable[[int, dict[int, ArmTrajectory], frozenset], Arm],
                     conflict: Callable[[int, ArmTrajectory, int, ArmTrajectory], bool],
                     settings: RoadmapSettings, rng: np.random.Generator, *,
-                    recruit: Callable[[int], list[tuple[int, ArmTrajectory]]] | None = None,
+                    recruit: Callable[[int, int], list[tuple[int, ArmTrajectory]]] | None = None,
                     max_nodes: int = 24, max_recruits: int = 6) -> PrioritySearchResult:
     """Depth-first search over pairwise priorities with Sabater's planner for each arm.
 
@@ -1047,17 +1048,20 @@ def priority_search(n_arms: int, make_arm: Callable[[int, dict[int, ArmTrajector
     (i, j): "i above j" or "j above i"; the lower arm and every arm below it whose
     trajectory now conflicts with one above it are planned again (in topological
     order). A child in which an arm gets no trajectory is dropped, unless ``recruit``
-    brings in new arms for it: ``recruit(i)`` returns ``(index, trajectory)`` of arms
-    that arm i met as fixed obstacles and that may now get out of its way (they are
-    placed below i; indices continue from the current number of arms; at most
-    ``max_recruits`` in all). The first node without conflicts is the solution.
+    brings in new arms for it: ``recruit(i, limit)`` returns at most ``limit``
+    ``(index, trajectory)`` of arms that arm i met as fixed obstacles and that may now
+    get out of its way (they are placed below i; indices continue from the current
+    number of arms; at most ``max_recruits`` in all). The first node without conflicts
+    is the solution.
 
     Parameters
     ----------
     n_arms : int, arms at the start
-    make_arm : callable ``(i, higher) -> Arm``; ``higher`` = {index: trajectory} of the
-        arms above i, its moving obstacles. Goal conflicts: the planner raises
-        ``hold_until`` to the latest end among them.
+    make_arm : callable ``(i, higher, arms) -> Arm``; ``higher`` = {index: trajectory}
+        of the arms above i, its moving obstacles; ``arms`` = the arms of this search
+        node: those not in ``higher`` are ignored, and arms recruited in other branches
+        (not in ``arms``) are part of the fixed environment again. Goal conflicts: the
+        planner raises ``hold_until`` to the latest end among ``higher``.
     conflict : callable ``(i, traj_i, j, traj_j) -> bool``, do arms i and j collide
         (each holding its last configuration after its end)
     settings : RoadmapSettings; rng : numpy Generator
@@ -1084,7 +1088,7 @@ def priority_search(n_arms: int, make_arm: Callable[[int, dict[int, ArmTrajector
 
     def plan(i: int, prio: dict[int, set], paths: dict[int, ArmTrajectory]) -> ArmTrajectory | None:
         higher = {h: paths[h] for h in closure_up(prio, i)}
-        arm = make_arm(i, higher)
+        arm = make_arm(i, higher, frozenset(paths) | {i})
         if higher:
             arm = replace(arm, hold_until=max(arm.hold_until, max(t.t_end for t in higher.values())))
         counter["plans"] += 1
@@ -1095,7 +1099,10 @@ def priority_search(n_arms: int, make_arm: Callable[[int, dict[int, ArmTrajector
         """Plan arm i; if it fails, recruit the arms that blocked it and try once more."""
         tr = plan(i, prio, paths)
         if tr is None and recruit is not None and counter["recruits"] < max_recruits:
-            new = recruit(i)[: max_recruits - counter["recruits"]]
+            new = list(recruit(i, max_recruits - counter["recruits"]))
+            if len(new) > max_recruits - counter["recruits"]:
+                raise field_error(SpecError, "recruit", len(new),
+                                  f"at most {max_recruits - counter['recruits']} arms", "priority_search")
             if new:
                 for j, trj in new:
                     counter["recruits"] += 1

@@ -293,7 +293,7 @@ def test_priority_search_resolves_a_goal_conflict_with_no_order_given():
     tasks = [((0.0, 5.0), (10.0, 5.0)), ((5.0, 8.0), (5.0, 5.0))]
     make = toy_world(tasks)
 
-    def make_arm(i, higher):
+    def make_arm(i, higher, arms):
         return make(i, higher)
 
     def conflict(i, a, j, b):
