@@ -36,7 +36,7 @@ Study file
     fold_beta_deg = 170.0
     buffer_mm = [1.5, 2.5, 3.5]   # sigma_cb; default: the preset's
     step_deg = 0.1
-    algorithm = ["greedy", "markov"]   # "GC" / "MC" are accepted too
+    algorithm = ["greedy", "markov"]   # "GC" / "MC" accepted; also "apf", "capf" (fields)
     greed = 0.9                   # Markov only (greedy points use greed 1, phobia 0)
     phobia = 0.3
     resolution = "replace"        # deadlock resolution: "replace" (Sayres 2021 Sect. 5.2)
@@ -152,7 +152,7 @@ GRID_KEYS = {
     "fold_beta_deg": "a number (deg) within the preset's beta limits",
     "buffer_mm": "a number > 0 (mm), below pitch / 2",
     "step_deg": "a number in [0.001, 10] (deg)",
-    "algorithm": "greedy | markov (GC / MC accepted)",
+    "algorithm": "greedy | markov (GC / MC accepted) | apf | capf",
     "greed": "a number in [0, 1]",
     "phobia": "a number in [0, 1]",
     "resolution": "replace | search | none",
@@ -162,7 +162,13 @@ GRID_KEYS = {
 }
 LAYOUTS = ("hex", "sdss-v-fps")
 RESOLUTIONS = ("replace", "search", "none")
-ALGORITHM_ALIASES = {"greedy": "greedy", "gc": "greedy", "markov": "markov", "mc": "markov"}
+ALGORITHM_ALIASES = {"greedy": "greedy", "gc": "greedy", "markov": "markov", "mc": "markov",
+                     "apf": "apf", "capf": "capf"}
+#: Potential-field planners (planners/apf.py): direct fold -> targets, segment model,
+#: gain 1, lambda3 0.03 (capf); step, direction, resolution and greed do not apply.
+FIELD_ALGORITHMS = ("apf", "capf")
+#: Extra target clearance beyond the field barrier, mm (as `rfp-twin plan`).
+FIELD_TARGET_SLACK_MM = 0.5
 DIRECTIONS = ("reverse", "forward")
 GRID_DEFAULTS = {
     "preset": "sdss-v", "layout": "hex", "n_robots": 547, "pitch_mm": None,
@@ -652,6 +658,8 @@ def _trial_row(point: dict, spec: RobotSpec, seed: int, index: int, check: bool)
     try:
         lay, geom = _geometry(spec, point["layout"], int(point["n_robots"]))
         row["n_fiducials"] = lay.n_fiducials
+        if point["algorithm"] in FIELD_ALGORITHMS:
+            return _field_trial(row, point, spec, lay, geom, seed, check, t0, c0)
         settings = PlannerSettings(algorithm=point["algorithm"], step_deg=point["step_deg"],
                                    greed=point["greed"], phobia=point["phobia"],
                                    direction=point["direction"], max_steps=point["max_steps"],
@@ -688,6 +696,39 @@ def _trial_row(point: dict, spec: RobotSpec, seed: int, index: int, check: bool)
                        if math.isfinite(rep.min_clearance_mm) else None)
     except RfpError as exc:  # e.g. no clear random targets in a very dense array
         row.update(status="error", error=f"{type(exc).__name__}: {exc}")
+    row["wall_s"] = time.perf_counter() - t0
+    row["cpu_s"] = time.thread_time() - c0
+    row["finished_utc"] = datetime.now(timezone.utc)
+    return row
+
+
+def _field_trial(row: dict, point: dict, spec: RobotSpec, lay, geom, seed: int, check: bool,
+                 t0: float, c0: float) -> dict:
+    """One APF / CAPF trial: targets clear of the field's barrier, fold -> targets."""
+    from planners.apf import ApfSettings, apf_target_margin_mm, plan_apf_reconfiguration
+    from planners.capf import CapfSettings
+    from planners.targets import random_targets
+
+    alg = point["algorithm"]
+    field = CapfSettings(model="segment") if alg == "capf" else ApfSettings(model="segment")
+    rng = np.random.default_rng(int(seed))
+    targets = random_targets(geom, rng, margin_mm=apf_target_margin_mm(geom, field)
+                             + FIELD_TARGET_SLACK_MM)
+    _, res = plan_apf_reconfiguration(geom, targets, field, algorithm=alg)
+    m = res.metrics()
+    row.update(efficiency=float(m["efficiency"]), convergence=float(m["convergence"]),
+               fold_time_s=float(m["fold_time_s"]), tau_pg_s=float(m["tau_pg_s"]),
+               tau_sr_s=float(m["tau_sr_s"]), n_replaced=0, n_deadlocked=int(m["n_deadlocked"]),
+               rounds=0, n_steps=int(m["n_steps"]),
+               status="deadlocked" if m["n_deadlocked"] else "ok")
+    if check:
+        from validation.checker2d import check_trajectory
+
+        t1 = time.perf_counter()
+        rep = check_trajectory(res.trajectory, spec, lay, spec.buffer_mm)
+        row.update(collisions=len(rep.collisions), check_s=time.perf_counter() - t1,
+                   min_clearance_mm=float(rep.min_clearance_mm)
+                   if math.isfinite(rep.min_clearance_mm) else None)
     row["wall_s"] = time.perf_counter() - t0
     row["cpu_s"] = time.thread_time() - c0
     row["finished_utc"] = datetime.now(timezone.utc)

@@ -126,10 +126,12 @@ SHORT = {"preset": "", "layout": "", "n_robots": "n", "pitch_mm": "pitch",
          "fold_beta_deg": "fold b", "buffer_mm": "sigma",
          "step_deg": "step", "greed": "greed", "phobia": "phobia", "resolution": "resolve",
          "direction": "", "max_rounds": "rounds"}
-ALG_SHORT = {"greedy": "GC", "markov": "MC"}
+ALG_SHORT = {"greedy": "GC", "markov": "MC", "apf": "APF", "capf": "CAPF"}
 ALG_STYLE = {"markov": dict(color="tab:blue", linestyle="-", cmap="Blues"),
-             "greedy": dict(color="tab:red", linestyle="--", cmap="Reds")}
-ALG_ORDER = ("markov", "greedy")   # the paper's panels: MC first (top), GC second
+             "greedy": dict(color="tab:red", linestyle="--", cmap="Reds"),
+             "capf": dict(color="tab:green", linestyle="-.", cmap="Greens"),
+             "apf": dict(color="tab:purple", linestyle=":", cmap="Purples")}
+ALG_ORDER = ("markov", "greedy", "capf", "apf")   # the paper's panels: MC first (top), GC second
 METRICS = ("efficiency", "convergence", "fold_time_s", "tau_pg_s", "tau_sr_s", "n_replaced",
            "rounds", "wall_s")
 #: Mean efficiency at which a feasibility-map cell counts as feasible.

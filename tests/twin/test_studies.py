@@ -357,3 +357,19 @@ def test_cli_run_report_and_errors(tmp_path):
     assert (tmp_path / "o" / "report" / "fig10_efficiency_mean.png").is_file()
     r = _cli("report", str(tmp_path / "nothing"))
     assert r.returncode == 2 and "no results/ folder" in r.stderr
+
+
+def test_field_planners_run_as_study_algorithms(tmp_path):
+    """apf / capf trials: checked, no replacement, efficiency = converged fraction."""
+    text = TINY.replace('algorithm = ["GC", "MC"]', 'algorithm = ["apf", "capf"]').replace(
+        "buffer_mm = [1.5, 3.0]", "buffer_mm = 2.0")
+    study = _study(text, tmp_path)
+    s = run_study(study, tmp_path / "out", workers=1, processes=False, progress=False)
+    assert s.complete and s.n_run == 4 and s.n_collisions == 0
+    rows = list(_rows_by_key(read_results(tmp_path / "out")).values())
+    assert {r["algorithm"] for r in rows} == {"apf", "capf"}
+    for r in rows:
+        assert r["status"] in ("ok", "deadlocked") and r["error"] is None
+        assert r["n_replaced"] == 0 and r["collisions"] == 0
+        assert r["efficiency"] == pytest.approx(1 - r["n_deadlocked"] / 19)
+        assert 0.0 < r["fold_time_s"] < 60.0
