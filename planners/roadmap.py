@@ -1088,7 +1088,7 @@ def priority_search(n_arms: int,
 
     def plan(i: int, prio: dict[int, set], paths: dict[int, ArmTrajectory]) -> ArmTrajectory | None:
         higher = {h: paths[h] for h in closure_up(prio, i)}
-        arm = make_arm(i, higher, frozenset(paths) | {i})
+        arm = make_arm(i, higher, frozenset(range(n_arms)) | frozenset(paths) | {i})
         if higher:
             arm = replace(arm, hold_until=max(arm.hold_until, max(t.t_end for t in higher.values())))
         counter["plans"] += 1
