@@ -25,7 +25,7 @@ failures, search time, and (unless ``--no-check``) the collisions the independen
 checker finds in every search plan at the planning buffer (must be 0).
 
 Every trial is appended to a JSON-lines file (``--raw``, default
-``benchmarks/bench_resolve.jsonl``) as it finishes, so an interrupted run keeps what it
+``out/bench_resolve.jsonl``) as it finishes, so an interrupted run keeps what it
 did and resumes where it stopped; ``--report-only`` rebuilds the tables from that file.
 Prints rich tables, then a markdown block for benchmarks/RESULTS.md.
 """
@@ -189,7 +189,7 @@ def main(argv=None) -> int:
     ap.add_argument("--greed", type=float, default=0.9)
     ap.add_argument("--phobia", type=float, default=0.3)
     ap.add_argument("--workers", type=int, default=1, help="processes (default 1)")
-    ap.add_argument("--raw", default="benchmarks/bench_resolve.jsonl",
+    ap.add_argument("--raw", default="out/bench_resolve.jsonl",
                     help="JSON-lines file of finished trials (appended; resumed)")
     ap.add_argument("--md-out", default=None, help="also write the markdown block here")
     ap.add_argument("--no-check", action="store_true", help="skip the 2D checker")
