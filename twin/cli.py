@@ -165,8 +165,8 @@ def plan(
     resolve: str = typer.Option("replace", help="Deadlocks left by greedy/markov: replace (new "
                                 "target for one robot per group, Sayres 2021) | search (re-plan "
                                 "the group by state-time search, keeping targets; replace where "
-                                "that fails; experimental: some merged plans still fail the 2D "
-                                "check, which then refuses them) | none."),
+                                "that fails; experimental and slow on large crowded arrays) | "
+                                "none."),
     apf_gain: float = typer.Option(1.0, help="apf/capf: field gain u = -gain J^T grad psi, 1/s."),
     lambda3: float = typer.Option(0.03, help="capf: cooperative weight (Macktoobian Eq. 5)."),
     max_steps: Optional[int] = typer.Option(None, help="Step limit [default: 1000 deg / step]."),
