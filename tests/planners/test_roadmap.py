@@ -305,3 +305,39 @@ def test_priority_search_resolves_a_goal_conflict_with_no_order_given():
     assert res.success and len(res.priorities) == 1
     a, b = res.trajectories[0], res.trajectories[1]
     assert not conflict(0, a, 1, b)
+
+
+# --- beyond the paper: the time-layered search ("sweep") --------------------------------
+def test_sweep_finds_the_earliest_arrival_on_the_same_graph():
+    hit = fig10_world()
+    arm = line_arm(hit, t_static=12.0)
+    dfs, _ = plan_arm(arm, direct_only(n_stop=None), RNG(0))
+    sweep, stats = plan_arm(arm, direct_only(n_stop=None, search="sweep"), RNG(0))
+    t = np.arange(0.0, sweep.t_end + 1e-9, 1.0)
+    assert not hit(sweep.at(t), t).any()
+    assert sweep.t_end == dfs.t_end == 17.0            # the wall sets the arrival time
+    wall = region(3.0, 4.0, 0.0, 4.0)
+    tr, _ = plan_arm(line_arm(wall, t_static=5.0), direct_only(n_stop=None, search="sweep"), RNG(0))
+    assert tr.t_end == 12.0 and actions(tr).count("F") == 10
+
+
+def test_sweep_crosses_vertices_and_checks_between_nodes():
+    def hit(q, t):
+        at_vertex = (np.hypot(q[:, 0] - 5.0, q[:, 1] - 5.0) < 0.5) & (t >= 7) & (t <= 12)
+        return at_vertex | ((q[:, 0] > 5.5) & (t < 15))
+
+    arm = Arm(start=np.zeros(2), goal=np.array([10.0, 0.0]), vmax=np.ones(2),
+              forbidden=lambda q: (q[:, 1] < 1.0) & (q[:, 0] > 3.0) & (q[:, 0] < 7.0),
+              collides=hit, lower=np.array([10.0, 0.0]), upper=np.array([10.0, 0.0]),
+              t_static=15.0, extra_vertices=np.array([[5.0, 5.0]]))
+    tr, _ = plan_arm(arm, RoadmapSettings(dt=1.0, dt_col=0.25, grid=(1, 1), n_random_edges=0,
+                                          n_stop=None, search="sweep"), RNG(0))
+    t = np.arange(0.0, tr.t_end + 1e-9, 0.25)
+    assert not hit(tr.at(t), t).any() and len(tr.path) == 3
+
+
+def test_sweep_needs_unlimited_start_stops():
+    with pytest.raises(SpecError, match="'n_stop'"):
+        RoadmapSettings(search="sweep", n_stop=1)
+    with pytest.raises(SpecError, match="'search'"):
+        RoadmapSettings(search="astar")
