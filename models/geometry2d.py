@@ -71,38 +71,14 @@ def segments_within(ax, ay, bx, by, cx, cy, dx, dy, r):
 
 
 @njit(cache=True, inline="always")
-def _project(ex, ey, ax, ay, bx, by):
-    """Closest point F = A + t (B - A) of segment AB to point E: (distance, t, fx, fy)."""
-    ux = bx - ax
-    uy = by - ay
-    den = ux * ux + uy * uy
-    t = 0.0
-    if den > 0.0:
-        t = min(1.0, max(0.0, ((ex - ax) * ux + (ey - ay) * uy) / den))
-    fx = ax + t * ux
-    fy = ay + t * uy
-    return math.sqrt((ex - fx) ** 2 + (ey - fy) ** 2), t, fx, fy
-
-
-@njit(cache=True, inline="always")
 def segment_closest(ax, ay, bx, by, cx, cy, dx, dy):
     """Closest points of non-crossing segments AB and CD.
 
     Returns (distance, s, px, py, qx, qy): P = A + s (B - A) on AB and Q on CD, mm.
     For crossing segments the distance is 0 and P = Q is an endpoint-nearest point.
     """
-    best, _, qx, qy = _project(ax, ay, cx, cy, dx, dy)
-    s_best, px, py = 0.0, ax, ay
-    d, _, fx, fy = _project(bx, by, cx, cy, dx, dy)
-    if d < best:
-        best, s_best, px, py, qx, qy = d, 1.0, bx, by, fx, fy
-    d, t, fx, fy = _project(cx, cy, ax, ay, bx, by)
-    if d < best:
-        best, s_best, px, py, qx, qy = d, t, fx, fy, cx, cy
-    d, t, fx, fy = _project(dx, dy, ax, ay, bx, by)
-    if d < best:
-        best, s_best, px, py, qx, qy = d, t, fx, fy, dx, dy
-    return best, s_best, px, py, qx, qy
+    d2, s_best, px, py, qx, qy = segment_closest_sq(ax, ay, bx, by, cx, cy, dx, dy)
+    return math.sqrt(d2), s_best, px, py, qx, qy
 
 
 @njit(cache=True, inline="always")
