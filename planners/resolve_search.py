@@ -2,29 +2,48 @@
 
 The reverse GC/MC planner (:mod:`planners.stepwise`) sometimes leaves a group of robots
 deadlocked (Sayres 2021 Sect. 5.2). Instead of replacing one target of the group, this
-module plans the group's robots with the prioritized roadmap search of
-:mod:`planners.roadmap` (Sabater 2018), in the planner's frame: each deadlocked robot
-goes from its start (the target, when planning in reverse) to its destination (the
-folded state) while
+module re-plans the group with the roadmap / state-time planner of
+:mod:`planners.roadmap` (Sabater 2018), in the planner's frame (reverse: each
+deadlocked robot goes from its target, at step 0, to the folded state):
 
 * every robot outside the group follows its existing stepwise path, a **moving
   obstacle** on the planner's step clock (after its last breakpoint it stays put);
-* fiducials and offline robots are **static** obstacles (``forbidden``), with the joint
-  limits;
-* group members are planned one at a time in priority order (Sabater's longest direct
-  move first); members planned earlier are moving obstacles for the later ones, members
-  not planned yet are ignored (Sabater's Algorithm 1); when one fails, it moves to the
-  front and the group is planned again (a few orders).
+  fiducials, offline robots and the joint limits are **static** (``forbidden``);
+* the group's robots are planned one at a time, each against the robots above it in a
+  priority order (Sabater's Algorithm 1), and the order itself is searched
+  (:func:`planners.roadmap.priority_search`): where two trajectories conflict, one
+  robot yields to the other and is planned again;
+* a deadlocked robot may keep, for as long as it likes, the stepwise motion it made
+  before it got stuck (its lead-in, :attr:`planners.roadmap.Arm.lead_in`); if that
+  fails, the group is searched again from step 0;
+* a robot that finds no trajectory at all **recruits** the neighbours that blocked it
+  most (robots that had reached their destination): they join the group below it and
+  may leave their stepwise paths at any time to make way (``expand`` of them at most);
+* each robot's roadmap (25 x 25 grid over the joint limits, random edges, the
+  start/goal corners) also holds a "retract beta to 180 deg, turn alpha, go to the
+  goal" path (:meth:`AlphaBetaWorld.via`): a beta arm folded over its own axis sweeps
+  the smallest disk when alpha turns;
+* the single-robot search is Sabater's state-time graph explored one time layer at a
+  time (``search="sweep"``, earliest arrival; ``"dfs"`` is the paper's depth-first
+  search); start-stop cycles are unlimited: stepwise plans stop and restart freely and
+  post-processing smooths them.
 
-The search's time grid: one action lasts ``K`` planner steps (``K = round(action_deg /
-step_deg)``), and a robot moves at most ``step_deg`` per axis per step (the stepwise
-planner's speed, or slower on the shorter axis). Collisions are checked at every step
-(``dt_col`` = 1 step) with the stepwise planner's step rule (Sayres 2021 Eqs. 6-7): the
-beta capsules must be farther apart than ``buffer_i + buffer_j + MD`` (fiducials
-``buffer_i + fiducial_buffer + MD``), ``MD = max_displacement(...)``. Since both robots
-of a pair move at most one step per axis between two checks, that margin keeps the pair
-apart at the collision buffer in continuous time, exactly as it does for the stepwise
-planner (see the :mod:`planners.stepwise` docstring), so the merged plan passes
+What made it work (deadlocked groups of the first greedy run on the 547 grid that the
+search resolved; 2.5 mm / 0.25 deg seeds 0-7 or 0-15, 3.5 mm / 0.1 deg seeds 0-2, 29
+groups): Sabater's fixed order with reorder-on-failure, 13 x 13 grid, lead-in or step-0
+start: 80 % / 62 %; plus recruiting blocking neighbours: 95 % / 76 %; the search over
+priorities with 25 x 25 grids, 300 paths and 200 000 nodes per robot: - / 90 %.
+Whole-plan figures, with replacement where the search fails: benchmarks/RESULTS.md.
+
+Time grid: one action lasts ``K`` planner steps (``K = round(action_deg / step_deg)``),
+and a robot moves at most ``step_deg`` per axis per step (the stepwise planner's speed,
+or slower on the shorter axis). Collisions are checked at every step (``dt_col`` = 1
+step) with the stepwise planner's step rule (Sayres 2021 Eqs. 6-7): the beta capsules
+must be farther apart than ``buffer_i + buffer_j + MD`` (fiducials ``buffer_i +
+fiducial_buffer + MD``), ``MD = max_displacement(...)``. Since both robots of a pair
+move at most one step per axis between two checks, that margin keeps the pair apart at
+the collision buffer in continuous time, exactly as it does for the stepwise planner
+(see the :mod:`planners.stepwise` docstring), so the merged plan passes
 :func:`validation.checker2d.check_trajectory` at the planning buffer.
 
 Units: mm and degrees; the search runs on the step clock (time unit = one planner step,

@@ -4,11 +4,26 @@
 In reverse mode (the default) it plans targets -> fold and plays that backwards; in
 forward mode it plans fold -> targets directly (for comparison, Fig. 8).
 
-When robots deadlock, one robot per deadlocked group (connected through the Eq. 4
-neighbour graph) gets a new random target and everything is planned again, until the
-array converges or ``max_rounds`` is spent. Metrics follow the paper: efficiency
-(Eq. 11, replaced robots counted once), convergence of the first run, tau_pg (time of the
-final, converging planner run), tau_sr (all runs), fold time (steps x step duration).
+When robots deadlock (groups connected through the Eq. 4 neighbour graph), two
+resolvers (``PlannerSettings.resolve``):
+
+* ``"search"`` (default): each group is re-planned by the state-time search of
+  :mod:`planners.resolve_search` (Sabater 2018), keeping every target; the other robots'
+  stepwise paths are its moving obstacles and the new paths are merged into the plan
+  on the same step clock (the plan may grow longer). Only groups the search cannot
+  resolve get a replaced target, as below;
+* ``"replace"``: one robot per group gets a new random target and everything is
+  planned again (Sayres 2021 Sect. 5.2), until the array converges or ``max_rounds``
+  is spent.
+
+Metrics follow the paper: efficiency (Eq. 11, replaced robots counted once; robots
+kept by the search are not replaced), convergence of the first run, tau_pg (time of the
+final planner run), tau_sr (all runs), fold time (steps x step duration); and the
+resolution: ``n_search_groups`` / ``n_search_robots`` (deadlocked groups / robots the
+final plan resolves by search), ``n_search_replanned`` (robots whose paths the search
+changed, recruited neighbours included), ``n_search_failed_groups`` (over all rounds),
+``n_replace_groups`` (groups resolved by replacing a target), ``search_s`` (wall time of
+the searches).
 """
 from __future__ import annotations
 
