@@ -165,6 +165,13 @@ class PathSet:
         moved = np.flatnonzero(np.any(np.abs(np.diff(a, axis=0)) > 1e-12, axis=1))
         return 0.0 if moved.size == 0 else float(self.steps[i][moved[-1] + 1])
 
+    def signature(self, i: int) -> bytes:
+        """Robot i's path up to its last motion, as bytes (equal paths, equal bytes)."""
+        a = self.angles[i]
+        moved = np.flatnonzero(np.any(np.abs(np.diff(a, axis=0)) > 1e-12, axis=1))
+        k = 1 if moved.size == 0 else int(moved[-1]) + 2
+        return self.steps[i][:k].tobytes() + a[:k].tobytes()
+
     def sample(self, i: int, k: np.ndarray) -> np.ndarray:
         """Robot i's angles at steps k: (len(k), 2) deg."""
         s, a = self.steps[i], self.angles[i]
@@ -688,7 +695,7 @@ def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, de
 def resolve_groups(geom: ArrayGeometry, paths: PathSet, n_steps: int, groups: list[np.ndarray],
                    start: np.ndarray, dest: np.ndarray, movable: np.ndarray, md: float,
                    step_deg: float, settings: SearchResolveSettings,
-                   rng: np.random.Generator) -> SearchOutcome:
+                   rng: np.random.Generator, memo: dict | None = None) -> SearchOutcome:
     """Re-plan each deadlocked group by prioritized state-time search, keeping targets.
 
     Parameters
@@ -701,14 +708,18 @@ def resolve_groups(geom: ArrayGeometry, paths: PathSet, n_steps: int, groups: li
     movable : (n,) bool, False for offline robots
     md : float, step-rule margin MD, mm; step_deg : float, planner step, deg
     settings : SearchResolveSettings; rng : numpy Generator
+    memo : dict or None, kept by the caller across planning rounds: a group whose
+        robots and surroundings (the paths, up to their last motion, of the robots it
+        re-planned and of their Eq. 4 neighbours) are the same as in an earlier round
+        gets that round's result again without a search (after a target replacement
+        the greedy planner re-plans everything, mostly to the same paths)
 
     Returns
     -------
     SearchOutcome. Groups are processed one after the other; a resolved group's new
     paths are moving obstacles for the groups after it. A group that fails keeps its
-    stepwise paths (still deadlocked). A failing group may be grown by its
-    non-deadlocked neighbours (``settings.expand``), whose stepwise paths are then
-    re-planned by the search as well.
+    stepwise paths (still deadlocked). Non-deadlocked neighbours that block a robot may
+    be re-planned too (recruited, ``settings.expand``).
     """
     clock = time.perf_counter()
     paths = PathSet(list(paths.steps), list(paths.angles))
@@ -717,10 +728,28 @@ def resolve_groups(geom: ArrayGeometry, paths: PathSet, n_steps: int, groups: li
     for g in groups:
         deadlocked[g] = True
     out = SearchOutcome(paths, int(n_steps))
+    def context(robots) -> dict[int, bytes]:
+        near = set(int(i) for i in robots)
+        for i in robots:
+            near.update(int(j) for j in world.neighbours(int(i)))
+        return {j: paths.signature(j) for j in near}
+
     for group in groups:
         t0 = time.perf_counter()
-        ok, members, new_paths, tried = search_group(world, group, start, dest, movable,
-                                                     deadlocked, settings, rng)
+        key = tuple(sorted(int(i) for i in group))
+        hit = None
+        for entry in (memo or {}).get(key, []):
+            if all(paths.signature(j) == sig for j, sig in entry[0].items()):
+                hit = entry
+                break
+        if hit is not None:
+            _, ok, members, new_paths, tried = hit
+        else:
+            ok, members, new_paths, tried = search_group(world, group, start, dest, movable,
+                                                         deadlocked, settings, rng)
+            if memo is not None:
+                ctx = context(members if ok else group)
+                memo.setdefault(key, []).append((ctx, ok, members, new_paths, tried))
         if ok:
             for i, (st, an) in new_paths.items():
                 paths.steps[i] = np.asarray(st, dtype=np.float64)

@@ -225,6 +225,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     n_replace_groups = 0
     n_search_failed = 0
     outcome = None
+    memo: dict = {}       # search results by group and surroundings, across rounds
     while True:
         seed = int(rng.integers(0, 2**31 - 1))
         if settings.direction == "reverse":
@@ -248,7 +249,8 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
                                              run.final, run.n_steps)
             outcome = resolve_groups(geom, PathSet.from_csr(ptr, steps, angles), run.n_steps,
                                      to_replace, start, goal, movable, md, settings.step_deg,
-                                     search_settings, np.random.default_rng([seed, 1]))
+                                     search_settings, np.random.default_rng([seed, 1]),
+                                     memo=memo if settings.greedy else None)
             search_s += outcome.seconds
             to_replace = outcome.failed
             n_search_failed += len(to_replace)
