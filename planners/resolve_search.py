@@ -18,7 +18,7 @@ deadlocked robot goes from its target, at step 0, to the folded state):
   fails, the group is searched again from step 0;
 * a robot that finds no trajectory at all **recruits** the neighbours that blocked it
   most (robots that had reached their destination): they join the group below it and
-  may leave their stepwise paths at any time to make way (``expand`` of them at most);
+  may leave their stepwise paths at any time to make way (``max_recruits`` at most);
 * each robot's roadmap (25 x 25 grid over the joint limits, random edges, the
   start/goal corners) also holds a "retract beta to 180 deg, turn alpha, go to the
   goal" path (:meth:`AlphaBetaWorld.via`): a beta arm folded over its own axis sweeps
@@ -61,8 +61,7 @@ from numba import njit
 from models.array import ArrayGeometry
 from models.errors import SpecError, field_error
 from models.geometry2d import beta_segment, point_segment_distance, segments_within
-from planners.roadmap import (Arm, ArmTrajectory, RoadmapSettings, prioritized_plan,
-                              priority_search)
+from planners.roadmap import Arm, ArmTrajectory, RoadmapSettings, priority_search
 
 DEG = math.pi / 180.0
 
@@ -84,10 +83,10 @@ class SearchResolveSettings:
     n_random_edges : int, random vertex pairs (3-edge paths)
     max_paths : int, paths tried per robot and departure
     max_nodes : int, state-time nodes expanded per robot (all its paths)
-    max_orders : int, nodes of the search over priorities per group and start
+    priority_nodes : int, nodes of the search over priorities per group and start
         (:func:`planners.roadmap.priority_search`)
     resume_edges : bool, see :class:`planners.roadmap.RoadmapSettings`
-    expand : int, most non-deadlocked neighbours that may join a group to make way
+    max_recruits : int, most non-deadlocked neighbours that may join a group to make way
         for a robot they block (re-planned below it, free to leave their stepwise paths)
     max_departures : int, times at which a deadlocked robot may leave the stepwise
         motion it made before it got stuck (latest first)
@@ -101,9 +100,9 @@ class SearchResolveSettings:
     n_random_edges: int = 16
     max_paths: int = 300
     max_nodes: int = 200_000
-    max_orders: int = 24
+    priority_nodes: int = 24
     resume_edges: bool = True
-    expand: int = 8
+    max_recruits: int = 8
     max_departures: int = 4
     search: str = "sweep"
 
@@ -111,10 +110,10 @@ class SearchResolveSettings:
         where = "SearchResolveSettings"
         if not (math.isfinite(self.action_deg) and self.action_deg > 0):
             raise field_error(SpecError, "action_deg", self.action_deg, "> 0 deg", where)
-        if self.max_orders < 1:
-            raise field_error(SpecError, "max_orders", self.max_orders, ">= 1", where)
-        if self.expand < 0:
-            raise field_error(SpecError, "expand", self.expand, ">= 0", where)
+        if self.priority_nodes < 1:
+            raise field_error(SpecError, "priority_nodes", self.priority_nodes, ">= 1", where)
+        if self.max_recruits < 0:
+            raise field_error(SpecError, "max_recruits", self.max_recruits, ">= 0", where)
 
     def roadmap_settings(self, step_deg: float) -> RoadmapSettings:
         """Roadmap settings on the step clock (time unit: one planner step)."""
@@ -444,7 +443,7 @@ class GroupResult:
     Attributes
     ----------
     group : (g,) robot indices deadlocked together
-    members : robot indices re-planned (the group, plus neighbours if it was expanded)
+    members : robot indices re-planned (the group, plus the neighbours it recruited)
     success : bool
     orders_tried : int, priority orders tried (over all expansions)
     seconds : float
@@ -493,130 +492,6 @@ def _prefix(paths: PathSet, i: int, cut: float) -> tuple[np.ndarray, np.ndarray]
     return np.append(st[keep], cut), np.vstack([an[keep], end])
 
 
-def plan_group(world: AlphaBetaWorld, members: list[int], start: np.ndarray, dest: np.ndarray,
-               settings: SearchResolveSettings, rng: np.random.Generator,
-               cuts: dict[int, float] | None = None, yielders: dict[int, set] | None = None,
-               order: list[int] | None = None, deadlocked: np.ndarray | None = None):
-    """Prioritized search of ``members`` (robot indices) to their ``dest`` rows.
-
-    Parameters
-    ----------
-    cuts : {robot index: step}; a member may follow its current path up to that step (its
-        prefix: for a deadlocked robot the stepwise motion it made before it got stuck,
-        for a yielding neighbour its whole stepwise path) and leave it at any time
-        (:attr:`planners.roadmap.Arm.lead_in`); members without a cut are searched from
-        ``start`` at step 0.
-    yielders : {robot index: robots it yields to}: until it is planned, the member is
-        ignored by those robots (it will have to get out of their way).
-    order : priority order (positions in ``members``), default Sabater's Sect. 7.
-    deadlocked : (n,) bool; members that are not deadlocked are neighbours re-planned
-        to make way; default: all members are deadlocked.
-
-    Until it is planned (and for robots it does not yield to), a deadlocked member is an
-    obstacle along its prefix only and is ignored after it (Sabater's Algorithm 1: later
-    arms avoid earlier ones); a re-planned neighbour is an obstacle on its current path.
-
-    Returns (PrioritizedResult whose arm indices are positions in ``members``, {robot
-    index: (steps, angles)} full paths of the planned members).
-    """
-    members = [int(i) for i in members]
-    cuts = {i: float(c) for i, c in (cuts or {}).items() if c > 0}
-    yielders = yielders or {}
-    if deadlocked is None:
-        deadlocked = np.zeros(world.geom.n_robots, dtype=bool)
-        deadlocked[members] = True
-    rs = settings.roadmap_settings(world.step_deg)
-    prefix = {i: _prefix(world.paths, i, cuts[i]) for i in members if i in cuts}
-    begin = {i: world.paths.sample(i, np.array([cuts[i]]))[0] if i in cuts else start[i]
-             for i in members}
-
-    def make_arm(a: int, planned: dict[int, ArmTrajectory]) -> Arm:
-        i = members[a]
-        override, ignore = {}, set()
-        for b, j in enumerate(members):
-            if j == i:
-                continue
-            if b in planned:
-                override[j] = (planned[b].times, planned[b].configs, None)
-            elif i in yielders.get(j, ()):
-                ignore.add(j)            # j will get out of i's way
-            elif not deadlocked[j]:
-                pass                     # j's current path, held at its end, as for any robot
-            elif j in prefix:
-                override[j] = (*prefix[j], cuts[j])
-            else:
-                ignore.add(j)
-        arm = world.arm(i, start[i], dest[i], 0.0, frozenset(ignore), override)
-        if i in prefix:
-            # it may keep its stepwise motion for a while and leave it at any time
-            arm = replace(arm, lead_in=prefix[i])
-        return arm
-
-    if order is None:
-        est = [float(np.max(np.abs(dest[i] - begin[i]))) for i in members]
-        order = sorted(range(len(members)), key=lambda a: -est[a])   # Sabater Sect. 7
-    res = prioritized_plan(len(members), make_arm, rs, rng, order=order,
-                           max_orders=settings.max_orders)
-    paths = {members[a]: (tr.times, tr.configs) for a, tr in res.trajectories.items()}
-    return res, paths
-
-
-def _plan_group_growing(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray,
-                        dest: np.ndarray, movable: np.ndarray, deadlocked: np.ndarray,
-                        settings: SearchResolveSettings, rng: np.random.Generator):
-    """Try to re-plan a deadlocked group, letting the robots that block it make way.
-
-    Two starts are tried: (1) each deadlocked robot may keep the stepwise motion it made
-    before it got stuck (a lead-in it can leave at any time), (2) it is searched from
-    step 0. In each, up to ``settings.max_orders`` prioritized attempts: when a robot X
-    fails, X moves to the front of the priority order and the two robots it met most
-    (``settings.expand`` of them in all) become yielders to X: X ignores them and they
-    are planned after X, free to leave their paths to make way. A yielder that is not
-    in the group (a neighbour that reached its destination) joins it right after X.
-
-    Returns (success, members, {robot: (steps, angles)}, orders tried).
-    """
-    tried = 0
-    members = [int(i) for i in group]
-    one = replace(settings, max_orders=1)
-    for keep_prefix in (True, False):
-        members = [int(i) for i in group]
-        cuts = {i: world.paths.motion_end(i) for i in members} if keep_prefix else {}
-        yielders: dict[int, set] = {}
-        order = None
-        seen = set()
-        added = 0
-        for _ in range(settings.max_orders):
-            res, new_paths = plan_group(world, members, start, dest, one, rng, cuts,
-                                        yielders, order, deadlocked)
-            tried += 1
-            seen.add((tuple(res.order), tuple(sorted((k, tuple(sorted(v)))
-                                                     for k, v in yielders.items()))))
-            if res.success:
-                return True, members, new_paths, tried
-            if res.failed_arm is None:
-                break
-            x = members[res.failed_arm]
-            front = [res.failed_arm]
-            block = [j for j in world.blockers(x) if movable[j] and x not in yielders.get(j, ())
-                     and (j in members or not deadlocked[j])][:2]
-            for j in block:
-                if j not in members:
-                    if added >= settings.expand:
-                        continue
-                    added += 1
-                    cuts[j] = world.paths.motion_end(j)
-                    members.append(j)
-                    front.append(len(members) - 1)
-                yielders.setdefault(j, set()).add(x)
-            # X first, then the neighbours that make way for it, then the others
-            order = front + [a for a in res.order if a not in front]
-            key = (tuple(order), tuple(sorted((k, tuple(sorted(v))) for k, v in yielders.items())))
-            if key in seen:
-                break
-    return False, members, {}, tried
-
-
 @njit(cache=True)
 def _pair_conflict(seg_a, seg_b, th):
     """True when two robots' segments (T, 4) come within th mm at the same step."""
@@ -640,7 +515,7 @@ def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, de
     Uses :func:`planners.roadmap.priority_search`: each robot is planned against the
     robots above it only; pairwise conflicts branch on who yields. A robot that finds
     no trajectory recruits the non-deadlocked neighbours it met most (two at a time,
-    ``settings.expand`` in all): they join below it, free to leave their stepwise
+    ``settings.max_recruits`` in all): they join below it, free to leave their stepwise
     paths (their lead-in) to make way. Two starts are tried: (1) each deadlocked robot
     may keep, for as long as it likes, the stepwise motion it made before it got stuck;
     (2) it is searched from step 0.
@@ -684,7 +559,8 @@ def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, de
             return out
 
         res = priority_search(len(agents), make_arm, conflict, rs, rng, recruit=recruit,
-                              max_nodes=settings.max_orders, max_recruits=settings.expand)
+                              max_nodes=settings.priority_nodes,
+                              max_recruits=settings.max_recruits)
         nodes += res.nodes
         if res.success:
             paths = {agents[a]: (tr.times, tr.configs) for a, tr in res.trajectories.items()}
@@ -719,7 +595,7 @@ def resolve_groups(geom: ArrayGeometry, paths: PathSet, n_steps: int, groups: li
     SearchOutcome. Groups are processed one after the other; a resolved group's new
     paths are moving obstacles for the groups after it. A group that fails keeps its
     stepwise paths (still deadlocked). Non-deadlocked neighbours that block a robot may
-    be re-planned too (recruited, ``settings.expand``).
+    be re-planned too (recruited, ``settings.max_recruits``).
     """
     clock = time.perf_counter()
     paths = PathSet(list(paths.steps), list(paths.angles))

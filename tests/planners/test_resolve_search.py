@@ -2,8 +2,6 @@
 independent 2D checker (validation.checker2d), never by the planner itself."""
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
@@ -108,7 +106,7 @@ def test_an_impossible_group_falls_back_to_replacing_its_target():
 
 def test_search_budget_exhausted_also_falls_back(deadlock_547):
     geom, targets, _ = deadlock_547
-    starved = PlannerSettings(step_deg=0.25, search=SearchResolveSettings(max_nodes=1, expand=0))
+    starved = PlannerSettings(step_deg=0.25, search=SearchResolveSettings(max_nodes=1, max_recruits=0))
     plan = plan_reconfiguration(geom, targets, starved, np.random.default_rng(5))
     m = plan.metrics
     assert m["n_search_failed_groups"] >= 1 and m["n_replaced"] >= 1
