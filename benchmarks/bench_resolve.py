@@ -194,6 +194,8 @@ def main(argv=None) -> int:
     ap.add_argument("--md-out", default=None, help="also write the markdown block here")
     ap.add_argument("--no-check", action="store_true", help="skip the 2D checker")
     ap.add_argument("--report-only", action="store_true", help="tables from --raw only")
+    ap.add_argument("--any-sources", action="store_true",
+                    help="with --report-only: use trials made with other sources too")
     args = ap.parse_args(argv)
     steps = args.steps or [default_step(b) for b in args.buffers]
     if len(steps) != len(args.buffers):
@@ -236,12 +238,17 @@ def main(argv=None) -> int:
                 futs = [ex.submit(run_trial, *j) for j in jobs]
                 for f in as_completed(futs):
                     save(f.result())
-    rows = [r for r in load_rows(raw) if r.get("seed") == args.seed and r.get("sources") == fp]
+    rows = [r for r in load_rows(raw) if r.get("seed") == args.seed
+            and (r.get("sources") == fp or (args.report_only and args.any_sources))]
+    used = sorted({r.get("sources") for r in rows})
+    if used != [fp]:
+        console.print(f"[yellow]trials made with sources {', '.join(map(str, used))}[/]")
     table = report(rows, cells)
     md = ["<!-- bench:begin -->", f"Command: `{cmd}`", "",
           f"Machine: nproc {os.cpu_count()}, {cpu_model()}; Python {platform.python_version()}; "
           f"load average at start {load_start}, at end {load_average()}; {now()}.", "",
-          f"Sources: models/ + planners/ sha256 `{fp}`. Trials file: `{raw}`.", "", table, "",
+          f"Sources: models/ + planners/ sha256 `{', '.join(map(str, used)) or fp}`. "
+          f"Trials file: `{raw}`.", "", table, "",
           f"Wall time of this invocation {time.perf_counter() - t_all:.0f} s.", "<!-- bench:end -->"]
     block = "\n".join(md)
     console.rule("markdown for benchmarks/RESULTS.md")

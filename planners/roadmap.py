@@ -46,7 +46,15 @@ Beyond the paper (each documented where it is done):
   at full speed" move are added to the vertices (:func:`corner_vertices`): "one joint
   first, then the other" and stepwise-planner-like moves the grid may miss;
 * :func:`prioritized_plan` retries with other priority orders (a failing arm is moved to
-  the front), as Sect. 2.1 says the MIRADAS software does.
+  the front), as Sect. 2.1 says the MIRADAS software does; :func:`priority_search`
+  searches the orders themselves (priority-based search, Ma et al. 2019): on a
+  conflict one arm yields to the other, and an arm with no trajectory may recruit the
+  fixed obstacles that blocked it as arms below it;
+* ``Arm.lead_in``: a motion the arm may follow first and leave at any time (e.g. the
+  part of an existing plan worth keeping); ``Arm.via``: extra paths a robot model knows;
+* ``search="sweep"``: the same state-time graph explored one time layer at a time (all
+  reachable positions of a layer checked in one black-box call): earliest arrival,
+  much faster than node-by-node depth-first search when it has to wait long or fails.
 
 The robot model is reached only through black boxes (Sect. 4.1): per arm
 ``forbidden(q)`` (the zone of avoidance: joint limits, static obstacles) and
