@@ -445,8 +445,9 @@ class GroupResult:
     group : (g,) robot indices deadlocked together
     members : robot indices re-planned (the group, plus the neighbours it recruited)
     success : bool
-    orders_tried : int, priority orders tried (over all expansions)
+    orders_tried : int, nodes of the search over priorities (both starts)
     seconds : float
+    hardest : robot index of the group that most often found no trajectory (-1: none)
     """
 
     group: np.ndarray
@@ -454,6 +455,7 @@ class GroupResult:
     success: bool
     orders_tried: int
     seconds: float
+    hardest: int = -1
 
 
 @dataclass
@@ -475,7 +477,14 @@ class SearchOutcome:
 
     @property
     def failed(self) -> list[np.ndarray]:
+        """The groups the search could not resolve."""
         return [g.group for g in self.groups if not g.success]
+
+    @property
+    def failed_hardest(self) -> list[int]:
+        """For each failed group, the robot that most often found no trajectory (the one
+        to give a new target), or -1."""
+        return [g.hardest for g in self.groups if not g.success]
 
     @property
     def resolved_robots(self) -> np.ndarray:
@@ -520,11 +529,13 @@ def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, de
     may keep, for as long as it likes, the stepwise motion it made before it got stuck;
     (2) it is searched from step 0.
 
-    Returns (success, robot indices re-planned, {robot: (steps, angles)}, tree nodes).
+    Returns (success, robot indices re-planned, {robot: (steps, angles)}, tree nodes,
+    the deadlocked robot that most often found no trajectory or -1).
     """
     rs = settings.roadmap_settings(world.step_deg)
     nodes = 0
     agents: list[int] = []
+    fails: dict[int, int] = {}
     for keep_prefix in (True, False):
         agents = [int(i) for i in group]
         lead = {}
@@ -562,10 +573,14 @@ def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, de
                               max_nodes=settings.priority_nodes,
                               max_recruits=settings.max_recruits)
         nodes += res.nodes
+        for a, c in res.failures.items():
+            fails[agents[a]] = fails.get(agents[a], 0) + c
         if res.success:
             paths = {agents[a]: (tr.times, tr.configs) for a, tr in res.trajectories.items()}
-            return True, [agents[a] for a in sorted(res.trajectories)], paths, nodes
-    return False, agents, {}, nodes
+            return True, [agents[a] for a in sorted(res.trajectories)], paths, nodes, -1
+    in_group = {int(i): fails.get(int(i), 0) for i in group}
+    hardest = max(in_group, key=lambda i: in_group[i]) if any(in_group.values()) else -1
+    return False, agents, {}, nodes, hardest
 
 
 def resolve_groups(geom: ArrayGeometry, paths: PathSet, n_steps: int, groups: list[np.ndarray],
@@ -619,19 +634,19 @@ def resolve_groups(geom: ArrayGeometry, paths: PathSet, n_steps: int, groups: li
                 hit = entry
                 break
         if hit is not None:
-            _, ok, members, new_paths, tried = hit
+            _, ok, members, new_paths, tried, hardest = hit
         else:
-            ok, members, new_paths, tried = search_group(world, group, start, dest, movable,
-                                                         deadlocked, settings, rng)
+            ok, members, new_paths, tried, hardest = search_group(
+                world, group, start, dest, movable, deadlocked, settings, rng)
             if memo is not None:
                 ctx = context(members if ok else group)
-                memo.setdefault(key, []).append((ctx, ok, members, new_paths, tried))
+                memo.setdefault(key, []).append((ctx, ok, members, new_paths, tried, hardest))
         if ok:
             for i, (st, an) in new_paths.items():
                 paths.steps[i] = np.asarray(st, dtype=np.float64)
                 paths.angles[i] = np.asarray(an, dtype=np.float64)
                 out.n_steps = max(out.n_steps, int(math.ceil(float(st[-1]))))
         out.groups.append(GroupResult(np.asarray(group), np.asarray(members), ok, tried,
-                                      time.perf_counter() - t0))
+                                      time.perf_counter() - t0, int(hardest)))
     out.seconds = time.perf_counter() - clock
     return out

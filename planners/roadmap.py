@@ -1027,6 +1027,7 @@ class PrioritySearchResult:
     nodes : int, search-tree nodes expanded
     plans : int, single-arm searches run
     seconds : float
+    failures : {arm index: single-arm searches that found no trajectory}
     """
 
     trajectories: dict[int, ArmTrajectory]
@@ -1036,6 +1037,7 @@ class PrioritySearchResult:
     nodes: int
     plans: int
     seconds: float = 0.0
+    failures: dict = field(default_factory=dict)
 
 
 def priority_search(n_arms: int,
@@ -1084,6 +1086,7 @@ def priority_search(n_arms: int,
     clock = time.perf_counter()
     counter = {"plans": 0, "n": n_arms, "recruits": 0}
     base_paths: dict[int, ArmTrajectory] = {}
+    failures: dict[int, int] = {}
 
     def closure_up(prio: dict[int, set], i: int) -> set:
         out, todo = set(), list(prio.get(i, ()))
@@ -1120,6 +1123,7 @@ def priority_search(n_arms: int,
                     prio.setdefault(j, set()).add(i)
                 tr = plan(i, prio, paths)
         if tr is None:
+            failures[i] = failures.get(i, 0) + 1
             return False
         paths[i] = tr
         return True
@@ -1158,7 +1162,7 @@ def priority_search(n_arms: int,
     for i in range(n_arms):
         if not plan_or_recruit(i, prio, paths):
             return PrioritySearchResult({}, False, counter["n"], set(), 0, counter["plans"],
-                                        time.perf_counter() - clock)
+                                        time.perf_counter() - clock, failures)
     stack = [(prio, paths)]
     nodes = 0
     last_pairs: set = set()
@@ -1169,7 +1173,7 @@ def priority_search(n_arms: int,
         c = first_conflict(paths)
         if c is None:
             return PrioritySearchResult(dict(paths), True, counter["n"], last_pairs, nodes,
-                                        counter["plans"], time.perf_counter() - clock)
+                                        counter["plans"], time.perf_counter() - clock, failures)
         children = []
         for hi, lo in (c, c[::-1]):
             if lo in closure_up(prio, hi):
@@ -1184,4 +1188,4 @@ def priority_search(n_arms: int,
         for _, p2, q2 in sorted(children, key=lambda x: -x[0]):
             stack.append((p2, q2))
     return PrioritySearchResult({}, False, counter["n"], last_pairs, nodes, counter["plans"],
-                                time.perf_counter() - clock)
+                                time.perf_counter() - clock, failures)

@@ -158,13 +158,17 @@ def deadlocked_groups(geom: ArrayGeometry, stuck: np.ndarray) -> list[np.ndarray
 
 
 def _replace_one(geom: ArrayGeometry, rng: np.random.Generator, targets: np.ndarray,
-                 group: np.ndarray, margin_mm: float) -> np.ndarray:
+                 group: np.ndarray, margin_mm: float, first: int = -1) -> np.ndarray:
     """New random target for one robot of a deadlocked group (Sayres 2021 Sect. 5.2).
 
-    Members are tried in random order; one whose neighbourhood leaves no clear spot is
-    skipped. Returns the updated (n, 2) targets (unchanged if no member fits).
+    Members are tried in random order (``first``, if given, before them: the robot the
+    search could not plan); one whose neighbourhood leaves no clear spot is skipped.
+    Returns the updated (n, 2) targets (unchanged if no member fits).
     """
-    for i in rng.permutation(group):
+    order = rng.permutation(group)
+    if first >= 0:
+        order = np.concatenate([[first], order[order != first]])
+    for i in order:
         keep = np.ones(geom.n_robots, dtype=bool)
         keep[i] = False
         try:
@@ -260,9 +264,11 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         if not to_replace or not resolve or rounds >= settings.max_rounds:
             break
         rounds += 1
-        for group in to_replace:
+        # after a failed search, the robot it could least plan is the first to replace
+        firsts = outcome.failed_hardest if outcome is not None else [-1] * len(to_replace)
+        for group, first in zip(to_replace, firsts):
             before = targets
-            targets = _replace_one(geom, rng, targets, group, md)
+            targets = _replace_one(geom, rng, targets, group, md, first)
             n_replace_groups += int(np.any(targets != before))
             replaced |= targets[:, 0] != original[:, 0]
             replaced |= targets[:, 1] != original[:, 1]
