@@ -100,9 +100,9 @@ class SearchResolveSettings:
     n_random_edges: int = 16
     max_paths: int = 300
     max_nodes: int = 200_000
-    priority_nodes: int = 24
+    priority_nodes: int = 32
     resume_edges: bool = True
-    max_recruits: int = 8
+    max_recruits: int = 16
     max_departures: int = 4
     search: str = "sweep"
 
