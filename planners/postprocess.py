@@ -47,8 +47,8 @@ from planners.plan import Plan
 from planners.simplify import simplify_columns
 from planners.smoothing import (METHODS, SmoothPath, plan_deviation, smooth_plan,
                                 window_for_limits)
-from planners.timing import (BACKENDS, TimeLaw, interaction_groups, interaction_pairs,
-                             pl_kinematics, time_group)
+from planners.timing import (BACKENDS, DEFAULT_BACKEND, TimeLaw, interaction_groups,
+                             interaction_pairs, pl_kinematics, time_group)
 from planners.trajectory import Trajectory
 
 __all__ = ["PostprocessReport", "TimedPath", "postprocess", "DEFAULT_BUDGET_MM",
@@ -171,6 +171,8 @@ class PostprocessReport:
     merges: int
     tightened: int
     collisions_repaired: int
+    timing_solvers: dict = field(default_factory=dict)
+    timing_fallbacks: int = 0
     stage_seconds: dict = field(default_factory=dict)
     #: The smooth timed motion behind the trajectory (not serialised).
     timed: TimedPath | None = field(default=None, repr=False, compare=False)
@@ -179,6 +181,7 @@ class PostprocessReport:
         """JSON-ready figures (everything but ``timed``; non-finite numbers become None)."""
         d = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "timed"}
         d["stage_seconds"] = dict(d["stage_seconds"])
+        d["timing_solvers"] = dict(d["timing_solvers"])
         for k, v in d.items():
             if isinstance(v, float) and not math.isfinite(v):
                 d[k] = None
@@ -199,6 +202,9 @@ class PostprocessReport:
             f"  points per axis median {self.points_per_axis_median:.0f}, max "
             f"{self.points_per_axis_max} (<= {self.max_points}); tolerance "
             f"{self.tolerance_deg:g} deg; retries {self.retries}",
+            f"  timing: {self.backend} backend, groups by solver "
+            + ", ".join(f"{k} {v}" for k, v in sorted(self.timing_solvers.items()))
+            + f"; fallbacks {self.timing_fallbacks}",
             "  stages " + ", ".join(f"{k} {v:.3f} s" for k, v in st.items()),
         ]
         return "\n".join(lines)
@@ -280,7 +286,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                 sample_s: float = 0.01,
                 grid_steps: float = 4.0,
                 align: str = "end",
-                backend: str = "numba",
+                backend: str = DEFAULT_BACKEND,
                 max_retries: int = 8,
                 verify: bool = True) -> tuple[Trajectory, PostprocessReport]:
     """Smooth, time, simplify and re-verify a plan (see the module docstring).
@@ -301,7 +307,9 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     sample_s : time step of the dense samples that RDP reduces, s
     grid_steps : longest TOPP-RA grid interval, plan steps
     align : "end" (all groups arrive together) or "start" (all start at t = 0)
-    backend : "numba" or "toppra" (:func:`planners.timing.time_group`)
+    backend : "toppra" (the library; a group it finds no solution for is timed by the
+        numba kernel and counted in the report's ``timing_fallbacks``) or "numba" (the
+        kernel only, faster) (:func:`planners.timing.time_group`)
     max_retries : verification rounds after the first
     verify : run the checker (False only for timing studies; the report then says so)
 
@@ -556,6 +564,9 @@ def _report(plan, traj, groups, labels, path, ledger, spec, buffer_mm, budget_mm
     timed = TimedPath(path, labels.copy(), {k: g.law for k, g in groups.items()},
                       _offsets(groups, align), {k: g.scale for k, g in groups.items()},
                       window.copy(), tol_robot)
+    solvers: dict = {}
+    for g in groups.values():
+        solvers[g.law.solver] = solvers.get(g.law.solver, 0) + 1
     stages = dict(stages)
     stages["total"] = time.perf_counter() - clock
     return PostprocessReport(
@@ -579,6 +590,7 @@ def _report(plan, traj, groups, labels, path, ledger, spec, buffer_mm, budget_mm
         check_rounds=rounds,
         max_slowdown=max((g.scale for g in groups.values()), default=1.0),
         retries=retries, merges=merges, tightened=tightened, collisions_repaired=repaired,
+        timing_solvers=solvers, timing_fallbacks=int(solvers.get("fallback", 0)),
         stage_seconds=stages, timed=timed)
 
 
