@@ -72,6 +72,23 @@ def test_firmware_ready_and_collision_free(n_positions, buffer_mm, seed):
     assert set(rep.stage_seconds) == {"smooth", "group", "time", "simplify", "verify", "total"}
 
 
+@pytest.mark.parametrize("n_positions,buffer_mm,seed", [(37, 1.5, 0), (91, 2.0, 1)])
+def test_toppra_backend_times_every_group_and_passes_the_checker(n_positions, buffer_mm, seed):
+    """The toppra library as the timing backend of the whole pipeline: no group left to
+    the numba kernel, the same fold as the kernel's, firmware-ready and collision-free."""
+    geom = make_geom(n_positions, buffer_mm)
+    _, plan = plan_random(geom, seed, step_deg=0.1)
+    traj, rep = postprocess(plan, geom, backend="toppra")
+    assert rep.backend == "toppra"
+    assert rep.timing_fallbacks == 0 and "numba" not in rep.timing_solvers
+    assert rep.timing_solvers["toppra"] == rep.n_groups - rep.timing_solvers.get("static", 0) > 0
+    assert_firmware_ready(traj, rep, plan, geom)
+    _, ker = postprocess(plan, geom, backend="numba")
+    assert ker.timing_solvers.get("numba") == rep.timing_solvers["toppra"]
+    assert rep.duration_s == pytest.approx(ker.duration_s, rel=1e-4)
+    assert rep.to_dict()["timing_fallbacks"] == 0
+
+
 def test_production_layout_with_fiducials_and_a_small_point_budget():
     spec = load_spec("sdss-v-production")
     lay = Layout.sdss_v_grid(fiducial_ids=(0, 3, 10, 20, 33, 48))

@@ -4,10 +4,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from models.errors import PlanningError
 from models.geometry2d import pair_distances
-from planners.smoothing import smooth_plan
-from planners.timing import (TimeLaw, interaction_groups, interaction_pairs, pl_kinematics,
-                             time_group, topp)
+from planners.smoothing import smooth_plan, window_for_limits
+from planners.timing import (TimeLaw, group_grid, interaction_groups, interaction_pairs,
+                             law_excess, pl_kinematics, time_group, topp)
 from tests.planners.conftest import make_geom, plan_random
 from tests.planners.test_smoothing import CORNER
 
@@ -92,6 +93,89 @@ def test_wider_windows_are_faster_on_a_real_group():
     assert durations[0] > durations[1] > durations[2]
 
 
+def real_groups(n_positions=37, buffer_mm=2.0, seed=2):
+    """A real greedy plan at 0.1 deg, smoothed as the pipeline does (window v^2 / (a d)),
+    and its interaction groups (1 mm): (path, [robot index arrays])."""
+    geom = make_geom(n_positions, buffer_mm)
+    _, plan = plan_random(geom, seed, step_deg=0.1)
+    sp = smooth_plan(plan, window_steps=window_for_limits((V, V), (A, A), plan.step_deg))
+    pairs, cl = interaction_pairs(plan, geom, 1.0)
+    labels = interaction_groups(geom.n_robots, pairs[cl < 1.0])
+    return sp, [np.flatnonzero(labels == g) for g in np.unique(labels)]
+
+
+def test_toppra_backend_solves_every_group_of_a_real_smoothed_plan():
+    """The library (seidel) on real groups: every one solved, within the limits, and the
+    same law as the numba kernel (the same discretised problem on the same grid)."""
+    sp, groups = real_groups()
+    assert max(g.size for g in groups) >= 2
+    mrange = sp.moving_range()
+    for robots in groups:
+        lib = time_group(sp, robots, (V, V), (A, A), backend="toppra", fallback=False,
+                         moving_range=mrange)
+        ker = time_group(sp, robots, (V, V), (A, A), backend="numba", moving_range=mrange)
+        if ker.solver == "static":
+            assert lib.solver == "static"
+            continue
+        assert lib.solver == "toppra" and ker.solver == "numba"
+        np.testing.assert_array_equal(lib.s, ker.s)
+        assert lib.duration == pytest.approx(ker.duration, rel=1e-4)
+        assert lib.sd[0] == 0.0 and lib.sd[-1] == 0.0
+        # the smooth timed path, by finite differences: within the limits (1 %)
+        vm, am = numeric_kinematics(sp, robots, lib, dt=5e-4)
+        assert vm <= V * 1.01 and am <= A * 1.01
+        # and the discretised constraints the law was solved under (limits * 0.999)
+        k = robots.size
+        qd = sp.evaluate(lib.s, robots, 1).reshape(lib.s.size, 2 * k)
+        mid = 0.5 * (lib.s[1:] + lib.s[:-1])
+        qdd = sp.evaluate(mid, robots, 2).reshape(mid.size, 2 * k)
+        rv, ra = law_excess(np.diff(lib.s), qd, qdd, np.full(2 * k, V * 0.999),
+                            np.full(2 * k, A * 0.999), lib.sd**2, 1e5)
+        assert rv <= 1.0 + 1e-9 and ra <= 1.0 + 1e-6
+
+
+def test_toppra_backend_falls_back_to_the_kernel_only_when_the_library_fails(monkeypatch):
+    from planners import timing_toppra
+
+    sp, groups = real_groups()
+    robots = max(groups, key=len)
+    ker = time_group(sp, robots, (V, V), (A, A), backend="numba")
+    monkeypatch.setattr(timing_toppra, "solve", lambda *args: None)
+    law = time_group(sp, robots, (V, V), (A, A), backend="toppra")
+    assert law.solver == "fallback" and law.duration == ker.duration
+    with pytest.raises(PlanningError, match="toppra"):
+        time_group(sp, robots, (V, V), (A, A), backend="toppra", fallback=False)
+
+
+def test_grid_is_coarse_only_on_straight_cruises():
+    """Every knot is a gridpoint, curved intervals are cut at grid_steps, and the coarse
+    straight intervals cost (almost) nothing against 4 steps everywhere."""
+    sp, groups = real_groups()
+    mrange = sp.moving_range()
+    n_fine = n_coarse = 0
+    for robots in groups:
+        k = robots.size
+        lim = (np.full(2 * k, V), np.full(2 * k, A), 1e5)
+        fine = group_grid(sp, robots, 4.0, mrange)
+        coarse = group_grid(sp, robots, 4.0, mrange, limits=lim)
+        if fine.size < 2:
+            continue
+        assert np.all(np.diff(coarse) > 0) and coarse[0] == fine[0] and coarse[-1] == fine[-1]
+        knots = np.unique(np.concatenate([sp.robot_knots(int(i)) for i in robots]))
+        inside = knots[(knots > fine[0]) & (knots < fine[-1])]
+        assert np.all(np.isin(inside, coarse))
+        mid = 0.5 * (coarse[1:] + coarse[:-1])
+        curved = np.any(sp.evaluate(mid, robots, 2).reshape(mid.size, -1) != 0, axis=1)
+        assert np.all(np.diff(coarse)[curved] <= 4.0 + 1e-9)
+        assert np.diff(coarse).max() <= 128.0 + 1e-9
+        n_fine += fine.size
+        n_coarse += coarse.size
+        d_fine = time_group(sp, robots, (V, V), (A, A), straight_steps=4.0, moving_range=mrange)
+        d_coarse = time_group(sp, robots, (V, V), (A, A), moving_range=mrange)
+        assert d_fine.duration * (1 - 1e-6) <= d_coarse.duration <= d_fine.duration * 1.001
+    assert n_coarse < 0.6 * n_fine
+
+
 def test_static_group_and_scaling():
     still = smooth_plan(CORNER, window_steps=10)
     law = time_group(still, [0], (V, V), (A, A))
@@ -102,6 +186,7 @@ def test_static_group_and_scaling():
     assert np.all(np.diff(s) >= 0) and s[0] == law.s[0] and s[-1] == law.s[-1]
     static = TimeLaw.static(3.0)
     assert static.duration == 0.0 and static.s_at([0.0, 5.0]).tolist() == [3.0, 3.0]
+    assert static.solver == "static" and slow.solver == law.solver == "numba"
 
 
 def test_pl_kinematics_three_point_definition():
