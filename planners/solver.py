@@ -39,7 +39,7 @@ from planners.resolve_search import PathSet, SearchResolveSettings, resolve_grou
 from planners.stepwise import ANGLE_EPS, max_displacement, run_stepwise
 from planners.targets import check_targets, random_targets
 
-ALGORITHMS = ("greedy", "markov")
+ALGORITHMS = ("greedy", "markov", "roadmap")
 DIRECTIONS = ("reverse", "forward")
 RESOLVERS = ("search", "replace")
 
@@ -48,7 +48,8 @@ RESOLVERS = ("search", "replace")
 class PlannerSettings:
     """Parameters of one planning job.
 
-    algorithm : "greedy" | "markov"; step_deg : angular step (deg); greed, phobia : MC
+    algorithm : "greedy" | "markov" (the stepwise kernel) | "roadmap" (Sabater's
+    prioritized planner on every robot, :mod:`planners.roadmap_array`); step_deg : angular step (deg); greed, phobia : MC
     parameters in [0, 1]; direction : "reverse" | "forward"; max_steps : step limit
     (default 1000 deg / step, as in the paper); max_rounds : deadlock-resolution rounds.
     resolve : "search" (re-plan each deadlocked group with the state-time search of
@@ -108,11 +109,14 @@ class StepRun:
 
 def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
              settings: PlannerSettings, seed: int) -> StepRun:
-    """One call of the stepwise kernel, growing the breakpoint buffers if they overflow."""
+    """One planner run: the stepwise kernel (growing its breakpoint buffers if they
+    overflow), or for ``algorithm="roadmap"`` one prioritized roadmap pass."""
     spec = geom.spec
     n = geom.n_robots
     md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
                           settings.step_deg)
+    if settings.algorithm == "roadmap":
+        return _run_roadmap(geom, start, dest, movable, settings, md, seed)
     greed = np.full(n, 1.0 if settings.greedy else settings.greed)
     phobia = 0.0 if settings.greedy else settings.phobia
     limits = np.array([*spec.alpha_limits_deg, *spec.beta_limits_deg], dtype=np.float64)
@@ -137,6 +141,17 @@ def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: 
             return StepRun(final, int(n_steps), ev_robot[:n_ev], ev_step[:n_ev], ev_angles[:n_ev],
                            seconds)
         cap *= 4
+
+
+def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
+                 settings: PlannerSettings, md: float, seed: int) -> StepRun:
+    """A roadmap pass (:func:`planners.roadmap_array.roadmap_pass`) as a StepRun."""
+    from planners.roadmap_array import roadmap_pass
+
+    res = roadmap_pass(geom, start, dest, movable, md, settings.step_deg,
+                       settings.search or SearchResolveSettings(), np.random.default_rng(seed))
+    ev_robot, ev_step, ev_angles = res.events()
+    return StepRun(res.final, res.n_steps, ev_robot, ev_step, ev_angles, res.seconds)
 
 
 def deadlocked_groups(geom: ArrayGeometry, stuck: np.ndarray) -> list[np.ndarray]:

@@ -152,8 +152,10 @@ def plan(
                                   "(generated grids only)."),
     buffer: Optional[float] = typer.Option(None, help="Collision buffer sigma_cb, mm [default: preset]."),
     step: float = typer.Option(0.1, help="Angular step, deg."),
-    algorithm: str = typer.Option("greedy", help="greedy | markov (stepwise, Sayres 2021) | apf "
-                                  "(Makarem 2014 navigation function) | capf (Macktoobian 2019)"),
+    algorithm: str = typer.Option("greedy", help="greedy | markov (stepwise, Sayres 2021) | roadmap "
+                                  "(Sabater 2018 prioritized state-time planner on every robot; "
+                                  "slow: minutes on 500 robots) | apf (Makarem 2014 navigation "
+                                  "function) | capf (Macktoobian 2019)"),
     greed: float = typer.Option(0.9, help="Markov greed, [0, 1]."),
     phobia: float = typer.Option(0.3, help="Markov phobia, [0, 1]."),
     seed: int = typer.Option(0, help="Seed of targets, Markov moves and replacements."),
@@ -162,11 +164,10 @@ def plan(
     targets: Optional[Path] = typer.Option(None, help="Targets CSV (robot_id + alpha_deg,beta_deg or "
                                            "x_mm,y_mm) [default: seeded random]."),
     direction: str = typer.Option("reverse", help="reverse (targets->fold, reversed) | forward"),
-    resolve: str = typer.Option("replace", help="Deadlocks left by greedy/markov: replace (new "
-                                "target for one robot per group, Sayres 2021) | search (re-plan "
-                                "the group by state-time search, keeping targets; replace where "
-                                "that fails; experimental and slow on large crowded arrays) | "
-                                "none."),
+    resolve: str = typer.Option("search", help="Deadlocks left by greedy/markov/roadmap: search "
+                                "(re-plan each deadlocked group by state-time search, keeping its "
+                                "targets; replace a target only where that fails) | replace (new "
+                                "target for one robot per group, Sayres 2021) | none."),
     apf_gain: float = typer.Option(1.0, help="apf/capf: field gain u = -gain J^T grad psi, 1/s."),
     lambda3: float = typer.Option(0.03, help="capf: cooperative weight (Macktoobian Eq. 5)."),
     max_steps: Optional[int] = typer.Option(None, help="Step limit [default: 1000 deg / step]."),
@@ -457,6 +458,10 @@ def print_summary(summary: dict, out: Path) -> None:
         ("convergence (1st run)", f"{m['convergence']:.4f}"),
         ("targets replaced", str(m["n_replaced"])),
         ("deadlocked", str(m["n_deadlocked"])),
+        *([("kept by search", f"{m['n_search_robots']} robots, {m['n_search_groups']} groups, "
+                              f"{m['search_s']:.1f} s ({m['n_search_failed_groups']} "
+                              f"failed)")]
+          if summary.get("resolve") == "search" else []),
         ("fold time (stepwise)", f"{m['fold_time_s']:.2f} s"),
         ("trajectory duration", f"{summary['duration_s']:.2f} s ({summary['trajectories']})"),
         ("tau_pg / tau_sr", f"{m['tau_pg_s']:.3f} s / {m['tau_sr_s']:.3f} s"),

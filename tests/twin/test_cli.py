@@ -241,3 +241,16 @@ def test_field_planners_write_checked_runs(tmp_path, algorithm):
     assert summary["metrics"]["efficiency"] == pytest.approx(1 - n_dead / 19)
     if algorithm == "capf":
         assert summary["field"]["lambda3"] == pytest.approx(0.03)
+
+
+def test_roadmap_planner_and_search_resolution_from_the_cli(tmp_path):
+    """--algorithm roadmap (Sabater on every robot); --resolve search is the default."""
+    out = tmp_path / "roadmap"
+    r = run("plan", "--layout", "hex:19", "--algorithm", "roadmap", "--buffer", "3.0",
+            "--step", "0.2", "--seed", "1", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "kept by search" in r.stdout
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["algorithm"] == "roadmap" and summary["resolve"] == "search"
+    assert summary["metrics"]["efficiency"] == 1.0
+    assert summary["check2d"]["ok"] and summary["check2d"]["n_collisions"] == 0
