@@ -43,20 +43,49 @@ bounds it everywhere. The velocity ``|q' sd|`` is bounded on the interval by
 ``|q'|`` of the adjacent gridpoints. The continuous ``s(t)`` therefore respects both
 limits exactly (up to rounding; limits are applied with a factor ``limit_margin``).
 
-Backends: ``"numba"`` (default, this module's kernel, well under 1 ms per group) and
-``"toppra"`` (the ``toppra`` 0.6 library: ``TOPPRA`` with ``JointVelocityConstraint`` and
-``JointAccelerationConstraint``, seidel solver, on the same gridpoints through a custom
-geometric path). Why the default is not the library, measured here:
+The grid cuts intervals where a joint curves at ``grid_steps`` (4 plan steps) and the
+straight cruises between them more coarsely (:func:`group_grid`): 2.8-2.9x fewer
+gridpoints on SDSS-V plans at the same fold time.
 
-- speed: 2-5 ms per call for 50-200 gridpoints, i.e. 1-2 s for the ~400 groups of a
-  500-robot SDSS-V fold, most of the 3 s budget of the whole post-processing;
-- robustness: its seidel LP returns NaN at a stage where a joint's path velocity
-  ``q'`` is exactly zero while its curvature ``q''`` is not, which is where a smoothed
-  axis starts, stops or reverses, i.e. in nearly every smoothed plan ("The controllable
-  set at step [i / N] can't be computed"); the backend then raises PlanningError.
+Backends
+--------
+Both solve the same discretised problem on the same gridpoints:
 
-On smooth paths where the library succeeds both give the same duration (within 0.3 %
-at 1000 gridpoints, tests/planners/test_timing.py).
+- ``"numba"`` (default): this module's kernel, :func:`topp_kernel`, about 0.3 ms per
+  group;
+- ``"toppra"``: the ``toppra`` 0.6 library, its ``TOPPRA`` algorithm and seidel LP
+  solver, given the constraints above as precomputed rows
+  (:mod:`planners.timing_toppra`). A group the library finds no solution for is timed
+  by the kernel instead (``TimeLaw.solver == "fallback"``, counted by the pipeline's
+  report as ``timing_fallbacks``).
+
+Why the library used to fail, and why the default is still the kernel (measured;
+benchmarks/RESULTS.md, "Timing backends"):
+
+- robustness, fixed: with the library's own ``JointVelocityConstraint`` /
+  ``JointAccelerationConstraint`` its seidel solver solved 0 of 386 groups of a
+  500-robot SDSS-V fold ("The controllable set at step [i / N] can't be computed").
+  The cause is scaling, not infeasibility: the 2D LP walks each violated constraint
+  line with the unnormalised direction ``(-q'', q')``, about 1e-4 long with ``s`` in
+  plan steps, and bounds the line parameter by 1e10, so from its start at the box
+  corner (1e8, 1e8) the optimum is out of reach and the 1D sub-LP ends on that
+  artificial bound, which the solver reports as infeasible. It shows where an axis
+  creeps or starts (smallest ``q'``, ``q''``) and only after some warm starts (the
+  same stage solved cold succeeds). With unit-norm rows, ``s`` rescaled so that the
+  kernel's ``sd`` cap fits the solver's box, and each interval's own ``q''`` at both
+  of its ends (the library's ``Interpolation`` scheme takes the next interval's
+  ``q''`` at a knot), it solves every group of every seed measured (about 390 groups
+  per fold, 5 seeds, no fallback), and its laws equal the kernel's within 2e-5 of the
+  duration (fold times equal to 1e-6).
+- speed, not fixed: the library runs its backward and forward passes in Python, about
+  10-13 us per gridpoint plus its solver set-up (which copies the constraint rows
+  element by element), so timing a 500-robot fold (~140k gridpoints, ~150k with the
+  verification rounds) takes 1.7-2.4 s instead of ~0.1 s: the whole post-processing
+  takes 2.35-3.27 s (median 2.70 s, preset ``sdss-v``, 5 seeds, 2-core machine) with
+  the library against 0.59-0.71 s with the kernel, for the same trajectories. That
+  misses the 3 s budget on one seed in five, so the kernel stays the default and the
+  library is the cross-check (tests/planners/test_timing.py and test_postprocess.py
+  compare the two on real plans).
 
 Piecewise-linear kinematics
 ---------------------------
