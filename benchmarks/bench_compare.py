@@ -9,6 +9,8 @@ Planners, all from the folded state to the same targets:
 - ``greedy/replace``: Sayres 2021 GC, reverse, one new target per deadlocked group;
 - ``greedy/search``: the same with the state-time search that keeps targets;
 - ``markov/search``: MC (greed 0.9, phobia 0.3) with the search;
+- ``roadmap/search``: Sabater 2018's prioritized state-time planner on every robot
+  (:mod:`planners.roadmap_array`), robots it leaves stuck re-planned by the group search;
 - ``apf`` / ``capf``: Makarem 2014 / Macktoobian 2019 fields on the beta capsules
   (segment model, gain 1, lambda3 0.03), direct fold -> targets, no resolution.
 
@@ -43,7 +45,7 @@ from planners.targets import random_targets  # noqa: E402
 from planners.trajectory import Trajectory  # noqa: E402
 from validation.checker2d import check_trajectory  # noqa: E402
 
-PLANNERS = ("greedy/replace", "greedy/search", "markov/search", "apf", "capf")
+PLANNERS = ("greedy/replace", "greedy/search", "markov/search", "roadmap/search", "apf", "capf")
 STEP_DEG = 0.1
 
 
@@ -70,7 +72,9 @@ def main() -> None:
     ap.add_argument("--buffer", type=float, default=2.5, help="collision buffer, mm")
     ap.add_argument("--trials", type=int, default=5, help="seeded scenarios per grid size")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--planners", nargs="+", default=list(PLANNERS), choices=PLANNERS)
     args = ap.parse_args()
+    planners = tuple(args.planners)
 
     spec = load_spec("sdss-v").with_overrides(buffer_mm=args.buffer)
     print(f"command: {command_line()}")
@@ -80,11 +84,11 @@ def main() -> None:
         geom = ArrayGeometry(spec, Layout.hex_grid_positions(n, spec.pitch_mm), args.buffer)
         margin = apf_target_margin_mm(geom, ApfSettings(model="segment")) + 0.5
         acc = {p: {"eff": [], "conv": [], "fold": [], "pg": [], "call": [], "coll": 0, "bad": 0}
-               for p in PLANNERS}
+               for p in planners}
         for t in range(args.trials):
             seed = args.seed * 1000 + t
             targets = random_targets(geom, np.random.default_rng([seed, n]), margin_mm=margin)
-            for p in PLANNERS:
+            for p in planners:
                 m, traj, wall = run_planner(p, geom, targets, seed)
                 rep = check_trajectory(traj, spec, geom.layout, args.buffer)
                 a = acc[p]
@@ -98,7 +102,7 @@ def main() -> None:
                 print(f"  N {n} trial {t} {p:15s} eff {m['efficiency']:.4f} conv {m['convergence']:.4f} "
                       f"fold {m['fold_time_s']:.2f} s call {wall:.2f} s collisions {len(rep.collisions)}",
                       flush=True)
-        for p in PLANNERS:
+        for p in planners:
             a = acc[p]
             rows.append([str(n), p, str(args.trials), f"{np.mean(a['eff']):.4f}",
                          f"{min(a['eff']):.4f}", f"{np.mean(a['conv']):.4f}",
