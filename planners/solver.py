@@ -35,6 +35,7 @@ import numpy as np
 from models.array import ArrayGeometry
 from models.errors import SpecError, TargetError, UnknownRobotError
 from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
+from planners.continuation import continue_groups
 from planners.resolve_search import PathSet, SearchResolveSettings, resolve_groups
 from planners.stepwise import ANGLE_EPS, max_displacement, run_stepwise
 from planners.targets import check_targets, random_targets
@@ -55,7 +56,10 @@ class PlannerSettings:
     resolve : "search" (re-plan each deadlocked group with the state-time search of
     :mod:`planners.resolve_search`, keeping its targets; replace a target only where the
     search fails) | "replace" (replace one target per group and re-plan, Sayres 2021
-    Sect. 5.2). search : options of the search (None = defaults).
+    Sect. 5.2). search : options of the search (None = defaults). continuation :
+    with ``resolve="search"``, Markov runs at most that let the groups the search could
+    not resolve go on alone after the plan's end (:mod:`planners.continuation`) before
+    a target is replaced; 0 = none.
     """
 
     algorithm: str = "greedy"
@@ -67,6 +71,7 @@ class PlannerSettings:
     max_rounds: int = 50
     resolve: str = "search"
     search: SearchResolveSettings | None = None
+    continuation: int = 8
 
     def __post_init__(self) -> None:
         if self.resolve not in RESOLVERS:
@@ -85,6 +90,8 @@ class PlannerSettings:
             raise SpecError(f"field 'max_steps' = {self.max_steps!r}; allowed: >= 1")
         if self.max_rounds < 0:
             raise SpecError(f"field 'max_rounds' = {self.max_rounds!r}; allowed: >= 0")
+        if self.continuation < 0:
+            raise SpecError(f"field 'continuation' = {self.continuation!r}; allowed: >= 0")
 
     @property
     def steps_limit(self) -> int:
@@ -152,6 +159,30 @@ def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movab
                        settings.search or SearchResolveSettings(), np.random.default_rng(seed))
     ev_robot, ev_step, ev_angles = res.events()
     return StepRun(res.final, res.n_steps, ev_robot, ev_step, ev_angles, res.seconds)
+
+
+def _continue(geom: ArrayGeometry, outcome, groups: list[np.ndarray], goal: np.ndarray,
+              settings: PlannerSettings, seed: int):
+    """Markov continuation of the groups the search left (:mod:`planners.continuation`),
+    appended to ``outcome.paths`` after ``outcome.n_steps`` (both updated in place)."""
+    from dataclasses import replace as _with
+
+    paths = outcome.paths
+    now = np.array([a[-1] for a in paths.angles])
+
+    def run(start, dest, movable, greed, phobia, s):
+        return run_once(geom, start, dest, movable,
+                        _with(settings, algorithm="markov", greed=greed, phobia=phobia), s)
+
+    cont = continue_groups(geom.n_robots, now, goal, groups, run, seed + 7919,
+                           settings.continuation)
+    offset = float(outcome.n_steps)
+    for i, (st, an) in cont.paths.items():
+        k = 1 if paths.steps[i][-1] >= offset else 0      # the continuation starts where i is
+        paths.steps[i] = np.concatenate([paths.steps[i], offset + st[k:]])
+        paths.angles[i] = np.vstack([paths.angles[i], an[k:]])
+        outcome.n_steps = max(outcome.n_steps, int(np.ceil(offset + st[-1])))
+    return cont
 
 
 def deadlocked_groups(geom: ArrayGeometry, stuck: np.ndarray) -> list[np.ndarray]:
@@ -245,6 +276,8 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     n_search_failed = 0
     outcome = None
     memo: dict = {}       # search results by group and surroundings, across rounds
+    continuation_s = 0.0
+    n_continued_groups = n_continued_robots = 0
     while True:
         seed = int(rng.integers(0, 2**31 - 1))
         if settings.direction == "reverse":
@@ -276,11 +309,23 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             resolved = outcome.resolved_robots
             stuck = stuck.copy()
             stuck[resolved] = False
+            if to_replace and settings.continuation > 0:
+                # what the search could not untangle goes on alone, after the plan's end
+                cont = _continue(geom, outcome, to_replace, goal, settings, seed)
+                continuation_s += cont.seconds
+                n_continued_groups += len(cont.solved)
+                n_continued_robots += len(cont.paths)
+                stuck[list(cont.paths)] = False
+                to_replace = [g for k, g in enumerate(to_replace) if k not in cont.solved]
+                hardest = outcome.failed_hardest
+                failed_hardest = [h for k, h in enumerate(hardest) if k not in cont.solved]
+            else:
+                failed_hardest = outcome.failed_hardest
         if not to_replace or not resolve or rounds >= settings.max_rounds:
             break
         rounds += 1
         # after a failed search, the robot it could least plan is the first to replace
-        firsts = outcome.failed_hardest if outcome is not None else [-1] * len(to_replace)
+        firsts = failed_hardest if outcome is not None else [-1] * len(to_replace)
         for group, first in zip(to_replace, firsts):
             before = targets
             targets = _replace_one(geom, rng, targets, group, md, first)
@@ -319,6 +364,8 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         "search_s": search_s, "n_search_groups": n_search_groups,
         "n_search_robots": n_search_robots, "n_search_replanned": n_search_replanned,
         "n_search_failed_groups": n_search_failed, "n_replace_groups": n_replace_groups,
+        "continuation_s": continuation_s, "n_continued_groups": n_continued_groups,
+        "n_continued_robots": n_continued_robots,
     })
     plan = Plan(
         robot_ids=geom.robot_ids.copy(), step_deg=settings.step_deg,

@@ -10,7 +10,7 @@ from models.errors import SpecError
 from models.kinematics import inverse
 from models.layout import Layout
 from models.robot import load_spec
-from planners.plan import OFFLINE, REACHED, REPLACED
+from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED
 from planners.resolve_search import AlphaBetaWorld, PathSet, SearchResolveSettings
 from planners.solver import PlannerSettings, plan_reconfiguration
 from planners.stepwise import max_displacement
@@ -104,14 +104,49 @@ def test_an_impossible_group_falls_back_to_replacing_its_target():
     assert_clear(geom, plan)
 
 
+STARVED = SearchResolveSettings(max_nodes=1, max_recruits=0)
+
+
 def test_search_budget_exhausted_also_falls_back(deadlock_547):
     geom, targets, _ = deadlock_547
-    starved = PlannerSettings(step_deg=0.25, search=SearchResolveSettings(max_nodes=1, max_recruits=0))
+    starved = PlannerSettings(step_deg=0.25, search=STARVED, continuation=0)
     plan = plan_reconfiguration(geom, targets, starved, np.random.default_rng(5))
     m = plan.metrics
     assert m["n_search_failed_groups"] >= 1 and m["n_replaced"] >= 1
+    assert m["n_continued_groups"] == 0
     assert plan.complete
     assert_clear(geom, plan)
+
+
+def test_groups_the_search_leaves_go_on_alone_after_the_plan(deadlock_547):
+    """Search starved: the Markov continuation untangles the groups after everyone else
+    has folded; targets kept, the plan is longer, and the checker finds it clear."""
+    geom, targets, searched = deadlock_547
+    starved = PlannerSettings(step_deg=0.25, search=STARVED)
+    plan = plan_reconfiguration(geom, targets, starved, np.random.default_rng(5))
+    m = plan.metrics
+    assert m["n_search_failed_groups"] >= 1 and m["n_continued_groups"] >= 1
+    assert m["n_continued_robots"] >= 2 and m["continuation_s"] > 0.0
+    assert m["n_replaced"] == 0 and m["efficiency"] == 1.0 and plan.complete
+    np.testing.assert_allclose(plan.end(), targets, atol=1e-9)
+    np.testing.assert_allclose(plan.start(), np.tile(geom.spec.fold_deg, (geom.n_robots, 1)))
+    # executed direction: the stuck robots unfold first, alone, while everyone else
+    # stays folded; then the first run's motion follows
+    first = plan_reconfiguration(geom, targets, starved, np.random.default_rng(5), resolve=False)
+    stuck = first.status == DEADLOCKED
+    c = plan.n_steps - first.n_steps
+    assert c > 0 and stuck.sum() >= 2
+    fold = np.tile(geom.spec.fold_deg, (geom.n_robots, 1))
+    during = plan.angles_at(np.linspace(0.0, c, 50))
+    np.testing.assert_allclose(during[:, ~stuck], np.broadcast_to(fold[~stuck], during[:, ~stuck].shape))
+    assert np.any(np.abs(during[:, stuck] - fold[stuck]) > 1.0)
+    np.testing.assert_allclose(plan.angles_at(np.array([float(c)]))[0], first.start(), atol=1e-9)
+    assert_clear(geom, plan)
+
+
+def test_continuation_setting_is_checked():
+    with pytest.raises(SpecError, match="field 'continuation'.*allowed: >= 0"):
+        PlannerSettings(continuation=-1)
 
 
 def test_collides_keeps_the_step_rule_margin():

@@ -1,0 +1,107 @@
+"""Deadlock resolution by continuation: the stuck groups go on alone, with Markov moves.
+
+When the reverse planner stops, every robot that is not deadlocked has reached its
+destination and stands still there. A deadlocked group is then boxed in only by its own
+members and by neighbours that are folded (compact) and static. Running the stepwise
+kernel again from that state, with only the group's robots movable and the Markov
+chain's random moves (Sayres 2021 Sect. 4.2: greed < 1, phobia > 0), often untangles
+arms that the greedy descent had locked together, since all members move at once
+(a coordinated motion that prioritized planning cannot express).
+
+The continuation is appended to the plan after its last step, so its motion happens
+while every other robot stands still; the stepwise kernel's step rule holds throughout,
+so the plan stays collision-free at the planning buffer. Played backwards (reverse
+planning) the group unfolds first, alone, and the rest of the plan follows.
+
+Groups are connected components of stuck robots through the Eq. 4 neighbour graph, so
+no robot of one group can touch a robot of another: each group's continuation is
+independent of the others' and a group's result can be taken from any attempt.
+
+Units: degrees, planner steps.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from planners.plan import build_paths
+from planners.stepwise import ANGLE_EPS
+
+#: (greed, phobia) of the successive attempts: greedy first, then more and more random.
+ATTEMPTS = ((0.9, 0.3), (0.8, 0.3), (0.7, 0.4), (0.6, 0.5), (0.9, 0.3), (0.7, 0.4),
+            (0.5, 0.5), (0.6, 0.6))
+
+
+@dataclass
+class Continuation:
+    """What :func:`continue_groups` found.
+
+    Attributes
+    ----------
+    paths : {robot index: (steps (k,) float64 from 0, angles (k, 2) deg)} of every robot
+        of every group that reached its destination (steps counted from the start of
+        the continuation)
+    solved : list of int, indices (into the groups given) of the groups that made it
+    attempts : int, kernel runs made
+    seconds : float, wall time
+    """
+
+    paths: dict = field(default_factory=dict)
+    solved: list = field(default_factory=list)
+    attempts: int = 0
+    seconds: float = 0.0
+
+
+def continue_groups(n: int, final: np.ndarray, dest: np.ndarray, groups: list[np.ndarray],
+                    run: Callable[[np.ndarray, np.ndarray, np.ndarray, float, float, int], object],
+                    seed: int, attempts: int = len(ATTEMPTS)) -> Continuation:
+    """Let each deadlocked group go on alone from where the planner stopped.
+
+    Parameters
+    ----------
+    n : int, robots in the array
+    final : (n, 2) deg, where every robot stands when the planner stopped
+    dest : (n, 2) deg, every robot's destination (planning frame)
+    groups : deadlocked groups (robot index arrays), disjoint, not Eq. 4 neighbours of
+        each other
+    run : callable ``(start (n, 2), dest (n, 2), movable (n,) bool, greed, phobia, seed)``
+        -> an object with ``final``, ``n_steps``, ``ev_robot``, ``ev_step``, ``ev_angles``
+        (one stepwise kernel run, :func:`planners.solver.run_once`)
+    seed : int, seed of the first attempt (attempt a uses ``seed + a``)
+    attempts : kernel runs at most (greed / phobia from :data:`ATTEMPTS`, cycled)
+
+    Returns
+    -------
+    Continuation
+    """
+    clock = time.perf_counter()
+    out = Continuation()
+    final = np.ascontiguousarray(final, dtype=np.float64)
+    dest = np.ascontiguousarray(dest, dtype=np.float64)
+    todo = list(range(len(groups)))
+    for a in range(max(0, attempts)):
+        if not todo:
+            break
+        movable = np.zeros(n, dtype=bool)
+        for g in todo:
+            movable[groups[g]] = True
+        greed, phobia = ATTEMPTS[a % len(ATTEMPTS)]
+        r = run(final, dest, movable, greed, phobia, seed + a)
+        out.attempts += 1
+        arrived = np.all(np.abs(r.final - dest) < ANGLE_EPS, axis=1)
+        ptr, steps, angles = build_paths(n, r.ev_robot, r.ev_step, r.ev_angles, final, r.final,
+                                         r.n_steps)
+        for g in list(todo):
+            members = groups[g]
+            if not arrived[members].all():
+                continue
+            for i in members:
+                i = int(i)
+                out.paths[i] = (steps[ptr[i]:ptr[i + 1]].copy(), angles[ptr[i]:ptr[i + 1]].copy())
+            out.solved.append(g)
+            todo.remove(g)
+    out.seconds = time.perf_counter() - clock
+    return out
