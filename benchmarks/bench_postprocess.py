@@ -8,6 +8,7 @@ Run from the repository root::
                                                      [--preset sdss-v-production]
                                                      [--algorithm greedy|markov]
                                                      [--backend numba|toppra]
+                                                     [--presimplify DEG]
                                                      [--append-results benchmarks/RESULTS.md]
 
 Sections
@@ -16,7 +17,7 @@ Sections
    ``sdss-v-production``, ``Layout.sdss_v_fps()``, 60 fiducials), step 0.1 deg, buffer
    2.0 mm, reverse plans of ``--algorithm`` (default greedy) with deadlock resolution
    (replacement), one per seed, post-processed with the timing backend ``--backend``
-   (default: the pipeline's). For each: per-stage seconds of
+   and the pre-simplification tolerance ``--presimplify`` (defaults: the pipeline's). For each: per-stage seconds of
    :func:`planners.postprocess.postprocess` (re-verification included), total, points
    per axis (median / max), fold time with the acceleration limits next to the
    stepwise plan's, retries, groups. Timings after one warm-up call (numba compilation
@@ -55,7 +56,7 @@ if str(ROOT) not in sys.path:
 from models.array import ArrayGeometry  # noqa: E402
 from models.layout import Layout  # noqa: E402
 from models.robot import load_spec  # noqa: E402
-from planners.postprocess import postprocess  # noqa: E402
+from planners.postprocess import DEFAULT_PRESIMPLIFY_DEG, postprocess  # noqa: E402
 from planners.smoothing import smooth_plan, window_for_limits  # noqa: E402
 from planners.solver import PlannerSettings, plan_reconfiguration  # noqa: E402
 from planners.stepwise import max_displacement  # noqa: E402
@@ -101,19 +102,20 @@ def fmt_range(x, f="{:.2f}") -> str:
 
 # =====================================================================================
 def bench_main(seeds, preset="sdss-v-production", algorithm="greedy",
-               backend=DEFAULT_BACKEND) -> tuple[list[str], dict]:
+               backend=DEFAULT_BACKEND, presimplify=DEFAULT_PRESIMPLIFY_DEG) -> tuple[list[str], dict]:
     spec = load_spec(preset)
     geom = ArrayGeometry(spec, Layout.sdss_v_fps(), 2.0)
     plans = []
     for s in seeds:
         plans.append(make_plan(geom, s, 0.1, algorithm))
     t0 = time.perf_counter()
-    postprocess(plans[0], geom, backend=backend)       # warm-up (numba compile / cache load)
+    postprocess(plans[0], geom, backend=backend,       # warm-up (numba compile / cache load)
+                presimplify_deg=presimplify)
     cold = time.perf_counter() - t0
     rows = []
     for s, plan in zip(seeds, plans):
         t0 = time.perf_counter()
-        traj, rep = postprocess(plan, geom, backend=backend)
+        traj, rep = postprocess(plan, geom, backend=backend, presimplify_deg=presimplify)
         wall = time.perf_counter() - t0
         rows.append((s, plan, rep, wall))
         st = rep.stage_seconds
@@ -125,7 +127,8 @@ def bench_main(seeds, preset="sdss-v-production", algorithm="greedy",
               f"{rep.verify_buffer_mm:.2f} mm, min clearance {rep.min_clearance_mm:.4f} mm; "
               f"max |v| {max(rep.max_speed_deg_s):.2f} deg/s, |a| {max(rep.max_accel_deg_s2):.2f} "
               f"deg/s^2; timing {rep.backend}: {rep.timing_solvers}, fallbacks "
-              f"{rep.timing_fallbacks}", flush=True)
+              f"{rep.timing_fallbacks}; breakpoints {rep.plan_breakpoints} -> "
+              f"{rep.smoothed_breakpoints}", flush=True)
     totals = [r[3] for r in rows]
     reps = [r[2] for r in rows]
     md = []
@@ -133,7 +136,10 @@ def bench_main(seeds, preset="sdss-v-production", algorithm="greedy",
     md.append("")
     md.append(f"Preset `{preset}`, `Layout.sdss_v_fps()` (500 robots, 60 fiducials), "
               f"{algorithm} reverse plans with deadlock resolution, seeds {list(seeds)}, timing "
-              f"backend `{backend}`; limits "
+              f"backend `{backend}`, pre-simplification {presimplify:g} deg (breakpoints "
+              f"{min(r.plan_breakpoints for r in reps)}-{max(r.plan_breakpoints for r in reps)} -> "
+              f"{min(r.smoothed_breakpoints for r in reps)}-{max(r.smoothed_breakpoints for r in reps)}"
+              f"); limits "
               f"{spec.max_speed_deg_s[0]:g} deg/s, {spec.max_accel_deg_s2[0]:g} deg/s^2; "
               f"initial window {window_for_limits(spec.max_speed_deg_s, spec.max_accel_deg_s2, 0.1):.0f} "
               f"steps, RDP tolerance {reps[0].tolerance_deg:g} deg, interaction distance "
@@ -352,6 +358,8 @@ def main(argv=None) -> int:
                     help="planner of main / backends")
     ap.add_argument("--backend", choices=("numba", "toppra"), default=DEFAULT_BACKEND,
                     help="timing backend of main")
+    ap.add_argument("--presimplify", type=float, default=DEFAULT_PRESIMPLIFY_DEG,
+                    help="pre-simplification tolerance of main, deg (0: off)")
     ap.add_argument("--append-results", type=Path, default=None)
     args = ap.parse_args(argv)
     header = ["", "## Post-processing: smooth + time + simplify + re-verify (issue #5)", "",
@@ -360,7 +368,8 @@ def main(argv=None) -> int:
     md: list[str] = list(header)
     if args.only in ("main", "all"):
         print("main: 500-robot SDSS-V layout", flush=True)
-        block, _ = bench_main(args.seeds, args.preset, args.algorithm, args.backend)
+        block, _ = bench_main(args.seeds, args.preset, args.algorithm, args.backend,
+                              args.presimplify)
         md += block + [""]
     if args.only in ("gc", "all"):
         print("gc: 547-robot grid, GC 2.5 mm 0.25 deg", flush=True)

@@ -2,6 +2,13 @@
 
 Pipeline (:func:`postprocess`):
 
+0. **Pre-simplify** (:func:`planners.simplify.simplify_plan`): each robot's stepwise
+   breakpoints are reduced by RDP within ``presimplify_deg`` on both axes (at equal
+   plan step), so the smoothed path of the reduced plan is within ``presimplify_deg``
+   of the smoothed plan (the running average is an average: it does not increase a
+   sup-norm difference). Markov plans have a breakpoint nearly every step; their
+   one-step wiggles cost knots and gridpoints, and time where the wiggles are wider
+   than the window.
 1. **Smooth** (:mod:`planners.smoothing`): the running-average velocity filter turns
    each robot's stepwise path into a C1 path ``q_i(s)`` of the plan step ``s``. The
    default window spans the time an axis needs to reach full speed (``v / a``;
@@ -23,8 +30,9 @@ Pipeline (:func:`postprocess`):
 5. **Verify**: :func:`validation.checker2d.check_trajectory` at ``buffer_mm -
    budget_mm`` (Eq. 12's sigma_smooth, 0.03 mm by default). A collision between two
    groups merges them (they met at different ``s``); a collision inside a group, or
-   with a fiducial, halves the smoothing window and the tolerance of the robots
-   involved (they deviate too far from the plan). The touched groups are redone and
+   with a fiducial, halves the smoothing window, the tolerance and the
+   pre-simplification tolerance of the robots involved (they deviate too far from the
+   plan). The touched groups are redone and
    checked again with their neighbours: the other pairs did not change (up to one
    common time shift when the longest group changes), so their earlier result stands.
    At most ``max_retries`` rounds; a trajectory that does not pass is never returned
@@ -44,7 +52,7 @@ import numpy as np
 from models.array import ArrayGeometry
 from models.errors import PlanningError, SpecError, field_error
 from planners.plan import Plan
-from planners.simplify import simplify_columns
+from planners.simplify import simplify_columns, simplify_plan
 from planners.smoothing import (METHODS, SmoothPath, plan_deviation, smooth_plan,
                                 window_for_limits)
 from planners.timing import (BACKENDS, DEFAULT_BACKEND, TimeLaw, interaction_groups,
@@ -52,7 +60,8 @@ from planners.timing import (BACKENDS, DEFAULT_BACKEND, TimeLaw, interaction_gro
 from planners.trajectory import Trajectory
 
 __all__ = ["PostprocessReport", "TimedPath", "postprocess", "DEFAULT_BUDGET_MM",
-           "DEFAULT_TOLERANCE_DEG", "DEFAULT_INTERACTION_MM", "DEFAULT_MAX_POINTS", "ALIGNMENTS"]
+           "DEFAULT_TOLERANCE_DEG", "DEFAULT_PRESIMPLIFY_DEG", "DEFAULT_INTERACTION_MM",
+           "DEFAULT_MAX_POINTS", "ALIGNMENTS"]
 
 #: sigma_smooth of Sayres 2021 Eq. 12, mm.
 DEFAULT_BUDGET_MM = 0.03
@@ -64,6 +73,13 @@ DEFAULT_MAX_POINTS = 1024
 #: segment by at most (7.4 + 2 * 14.7) mm * 0.1 deg = 0.064 mm, small next to the
 #: smoothing itself; robots near contact get it halved by the verification loop.
 DEFAULT_TOLERANCE_DEG = 0.1
+#: RDP tolerance of the stepwise plan before smoothing, deg (0: off). Measured on the
+#: 500-robot SDSS-V layout, step 0.1 deg, 2.0 mm (benchmarks/RESULTS.md): Markov plans
+#: ~980k breakpoints -> ~200k, post-processing 2.3-2.8 s -> 1.3-1.6 s and folds 3-7 s
+#: shorter (the wiggles are gone); greedy plans ~18k -> ~4k breakpoints, the same time
+#: and fold times within 2 %. 0.2 deg moves a point of the beta collision segment by at
+#: most 0.13 mm before smoothing; robots that come too close get it halved.
+DEFAULT_PRESIMPLIFY_DEG = 0.2
 #: Pairs whose clearance falls below this at some step of the plan share one path
 #: parameter, mm. 0.3 / 1 / 2 mm gave the same fold times on the 500-robot layout; 1 mm
 #: (half a buffer) needed no group merge in verification there, 0.3 mm one.
@@ -173,6 +189,9 @@ class PostprocessReport:
     collisions_repaired: int
     timing_solvers: dict = field(default_factory=dict)
     timing_fallbacks: int = 0
+    presimplify_deg: float = 0.0
+    plan_breakpoints: int = 0
+    smoothed_breakpoints: int = 0
     stage_seconds: dict = field(default_factory=dict)
     #: The smooth timed motion behind the trajectory (not serialised).
     timed: TimedPath | None = field(default=None, repr=False, compare=False)
@@ -202,6 +221,8 @@ class PostprocessReport:
             f"  points per axis median {self.points_per_axis_median:.0f}, max "
             f"{self.points_per_axis_max} (<= {self.max_points}); tolerance "
             f"{self.tolerance_deg:g} deg; retries {self.retries}",
+            f"  breakpoints {self.plan_breakpoints} -> {self.smoothed_breakpoints} smoothed "
+            f"(pre-simplified within {self.presimplify_deg:g} deg)",
             f"  timing: {self.backend} backend, groups by solver "
             + ", ".join(f"{k} {v}" for k, v in sorted(self.timing_solvers.items()))
             + f"; fallbacks {self.timing_fallbacks}",
@@ -280,6 +301,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                 budget_mm: float = DEFAULT_BUDGET_MM,
                 max_points: int = DEFAULT_MAX_POINTS,
                 tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
+                presimplify_deg: float = DEFAULT_PRESIMPLIFY_DEG,
                 smoothing: str = "average",
                 window_steps: float | None = None,
                 interaction_mm: float = DEFAULT_INTERACTION_MM,
@@ -300,6 +322,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         is verified at ``buffer_mm - budget_mm``
     max_points : most (angle, time) points per axis (firmware: 1024)
     tolerance_deg : RDP tolerance, deg (raised per axis only if ``max_points`` forces it)
+    presimplify_deg : RDP tolerance of the stepwise plan before smoothing, deg (0: off)
     smoothing, window_steps : method and initial window (plan steps) of
         :func:`planners.smoothing.smooth_plan` [default window:
         :func:`planners.smoothing.window_for_limits` of the spec and the plan's step]
@@ -331,6 +354,9 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         window_steps = window_for_limits(spec.max_speed_deg_s, spec.max_accel_deg_s2, plan.step_deg)
     _check_args(budget_mm, buffer_mm, max_points, tolerance_deg, smoothing, window_steps,
                 interaction_mm, sample_s, grid_steps, align, backend, max_retries)
+    if not (np.isfinite(presimplify_deg) and 0.0 <= presimplify_deg <= 10.0):
+        raise field_error(SpecError, "presimplify_deg", presimplify_deg, "[0, 10] deg",
+                          "postprocess")
     if plan.n_robots != geom.n_robots or not np.array_equal(plan.robot_ids, geom.robot_ids):
         raise field_error(SpecError, "plan.robot_ids", f"{plan.n_robots} robots",
                           f"the {geom.n_robots} robots of the layout, in layout order", "postprocess")
@@ -341,8 +367,9 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     # 1. smoothing
     t0 = time.perf_counter()
     window = np.full(n, float(window_steps))
+    pre = np.full(n, float(presimplify_deg))
     pad = float(window_steps) / 2.0
-    path = _smooth(plan, smoothing, window, pad)
+    path, n_smoothed = _smooth(plan, smoothing, window, pad, pre)
     stages["smooth"] += time.perf_counter() - t0
 
     # 2. grouping
@@ -426,10 +453,11 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                 touched.add(a)
         for i in touched:
             # both deviations from the plan: smoothing and simplification
-            if window[i] <= _MIN_WINDOW_STEPS and tol[i] <= _MIN_TOLERANCE_DEG:
+            if window[i] <= _MIN_WINDOW_STEPS and tol[i] <= _MIN_TOLERANCE_DEG and pre[i] == 0.0:
                 continue
             window[i] = max(_MIN_WINDOW_STEPS, window[i] / _TIGHTEN)
             tol[i] = max(_MIN_TOLERANCE_DEG, tol[i] / _TIGHTEN)
+            pre[i] = pre[i] / _TIGHTEN if pre[i] / _TIGHTEN >= _MIN_TOLERANCE_DEG else 0.0
             tightened += 1
             dirty.add(int(labels[i]))
         if not dirty:
@@ -440,7 +468,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                 "larger budget_mm")
         if touched:
             t0 = time.perf_counter()
-            path = _smooth(plan, smoothing, window, pad)
+            path, n_smoothed = _smooth(plan, smoothing, window, pad, pre)
             stages["smooth"] += time.perf_counter() - t0
         for g in dirty:
             changed[labels == g] = True
@@ -449,6 +477,9 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                      buffer_mm, budget_mm, verify_buffer, smoothing, window_steps, window,
                      tolerance_deg, max_points, sample_s, interaction_mm, align, backend, rounds,
                      retries, merges, tightened, repaired, stages, clock)
+    report.presimplify_deg = float(presimplify_deg)
+    report.plan_breakpoints = int(plan.path_step.size)
+    report.smoothed_breakpoints = n_smoothed
     return traj, report
 
 
@@ -503,8 +534,12 @@ def _subset(traj: Trajectory, sel: np.ndarray) -> Trajectory:
                       tuple(tuple(traj.angles[ax][i] for i in sel) for ax in range(2)))
 
 
-def _smooth(plan: Plan, method: str, window: np.ndarray, pad: float) -> SmoothPath:
-    return smooth_plan(plan, method=method, window_steps=window, pad_steps=pad)
+def _smooth(plan: Plan, method: str, window: np.ndarray, pad: float,
+            pre: np.ndarray) -> tuple[SmoothPath, int]:
+    """Pre-simplify (tolerance ``pre`` per robot) and smooth: (path, breakpoints smoothed)."""
+    src = simplify_plan(plan, pre) if np.any(pre > 0.0) else plan
+    return (smooth_plan(src, method=method, window_steps=window, pad_steps=pad),
+            int(src.path_step.size))
 
 
 def _offsets(groups: dict, align: str) -> dict:

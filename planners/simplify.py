@@ -14,6 +14,12 @@ dense trajectory to the simplified one.
 If the tolerance would need more than ``max_points`` points, the tolerance of that axis
 is raised by factors of 1.5 until it fits, and the raised value is reported.
 
+:func:`simplify_plan` applies the same reduction to a stepwise plan before smoothing
+(both axes of a robot together, deviation at equal plan step): a Markov plan has a
+breakpoint nearly every step, one-step wiggles the smoothing window averages away
+anyway, and every breakpoint costs knots in the smoothed path and gridpoints in the
+time law.
+
 All heavy work is numba ``@njit(cache=True)``; units are seconds and degrees.
 """
 from __future__ import annotations
@@ -23,7 +29,7 @@ from numba import njit
 
 from models.errors import SpecError, field_error
 
-__all__ = ["rdp_mask", "simplify_axis", "simplify_columns", "max_deviation"]
+__all__ = ["rdp_mask", "simplify_axis", "simplify_columns", "max_deviation", "simplify_plan"]
 
 #: Factor by which a tolerance is raised when the point budget is exceeded.
 _RAISE = 1.5
@@ -141,3 +147,93 @@ def simplify_columns(t, Y, tol, max_points: int = 1024):
 def max_deviation(t_dense, y_dense, t_kept, y_kept) -> float:
     """Largest |linear interpolation of the kept points - dense samples|, deg."""
     return float(np.max(np.abs(np.interp(t_dense, t_kept, y_kept) - y_dense))) if len(t_dense) else 0.0
+
+
+# =====================================================================================
+# Stepwise plans
+# =====================================================================================
+@njit(cache=True)
+def _rdp_pair(t, y, tol, keep):
+    """RDP on (t, alpha, beta) with the larger vertical deviation of the two axes."""
+    n = t.size
+    keep[:] = False
+    if n == 0:
+        return
+    keep[0] = True
+    keep[n - 1] = True
+    if n <= 2:
+        return
+    stack = np.empty((n, 2), dtype=np.int64)
+    stack[0, 0] = 0
+    stack[0, 1] = n - 1
+    top = 1
+    while top > 0:
+        top -= 1
+        i = stack[top, 0]
+        j = stack[top, 1]
+        if j - i < 2:
+            continue
+        dt = t[j] - t[i]
+        best = -1.0
+        idx = -1
+        for k in range(i + 1, j):
+            f = (t[k] - t[i]) / dt if dt > 0.0 else 0.0
+            d = 0.0
+            for c in range(2):
+                d = max(d, abs(y[k, c] - (y[i, c] + f * (y[j, c] - y[i, c]))))
+            if d > best:
+                best = d
+                idx = k
+        if best > tol:
+            keep[idx] = True
+            stack[top, 0] = i
+            stack[top, 1] = idx
+            stack[top + 1, 0] = idx
+            stack[top + 1, 1] = j
+            top += 2
+
+
+@njit(cache=True)
+def _simplify_plan(ptr, steps, angles, tol, keep):
+    for i in range(ptr.size - 1):
+        a = ptr[i]
+        b = ptr[i + 1]
+        if tol[i] > 0.0:
+            _rdp_pair(steps[a:b], angles[a:b], tol[i], keep[a:b])
+        else:
+            keep[a:b] = True
+
+
+def simplify_plan(plan, tol_deg):
+    """The plan with each robot's breakpoints reduced by RDP, both axes together.
+
+    A breakpoint is dropped when linear interpolation (on the step clock) between the
+    kept ones stays within ``tol_deg`` of it on both axes, so the reduced path is within
+    ``tol_deg`` of the plan at every step (both are piecewise linear with the kept
+    breakpoints among the plan's). The first and last breakpoint of every robot are
+    kept: start and end configurations are exact.
+
+    Parameters
+    ----------
+    plan : planners.plan.Plan
+    tol_deg : float or (n,) per robot, deg (>= 0; 0 keeps every breakpoint)
+
+    Returns
+    -------
+    Plan with the same robots, steps and metadata, fewer breakpoints.
+    """
+    from dataclasses import replace
+
+    n = plan.n_robots
+    tol = np.broadcast_to(np.asarray(tol_deg, dtype=np.float64), (n,)).copy()
+    if not np.all(np.isfinite(tol)) or np.any(tol < 0):
+        raise field_error(SpecError, "presimplify_deg", tol_deg, "finite values >= 0 deg",
+                          "simplify_plan")
+    ptr = np.ascontiguousarray(plan.path_ptr, dtype=np.int64)
+    steps = np.ascontiguousarray(plan.path_step, dtype=np.float64)
+    angles = np.ascontiguousarray(plan.path_angles, dtype=np.float64)
+    keep = np.empty(steps.size, dtype=np.bool_)
+    _simplify_plan(ptr, steps, angles, tol, keep)
+    new_ptr = np.concatenate([[0], np.cumsum(keep, dtype=np.int64)])[ptr]
+    return replace(plan, path_ptr=new_ptr, path_step=plan.path_step[keep],
+                   path_angles=plan.path_angles[keep])

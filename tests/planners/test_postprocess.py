@@ -89,6 +89,19 @@ def test_toppra_backend_times_every_group_and_passes_the_checker(n_positions, bu
     assert rep.to_dict()["timing_fallbacks"] == 0
 
 
+def test_markov_plan_is_pre_simplified_and_stays_collision_free():
+    geom = make_geom(91, 2.0)
+    _, plan = plan_random(geom, 3, step_deg=0.1, algorithm="markov")
+    traj, rep = postprocess(plan, geom)
+    assert rep.presimplify_deg == 0.2 and rep.plan_breakpoints == plan.path_step.size
+    assert rep.smoothed_breakpoints < 0.5 * rep.plan_breakpoints
+    assert_firmware_ready(traj, rep, plan, geom)
+    _, raw = postprocess(plan, geom, presimplify_deg=0.0)
+    assert raw.smoothed_breakpoints == raw.plan_breakpoints and raw.verified
+    with pytest.raises(SpecError, match="presimplify_deg"):
+        postprocess(plan, geom, presimplify_deg=-0.1)
+
+
 def test_production_layout_with_fiducials_and_a_small_point_budget():
     spec = load_spec("sdss-v-production")
     lay = Layout.sdss_v_grid(fiducial_ids=(0, 3, 10, 20, 33, 48))

@@ -5,8 +5,10 @@ import numpy as np
 import pytest
 
 from models.errors import SpecError
-from planners.simplify import max_deviation, rdp_mask, simplify_axis, simplify_columns
+from planners.simplify import (max_deviation, rdp_mask, simplify_axis, simplify_columns,
+                               simplify_plan)
 from planners.timing import pl_kinematics
+from tests.planners.conftest import make_geom, plan_random
 
 
 def test_straight_line_keeps_its_two_ends():
@@ -75,3 +77,30 @@ def test_bad_arguments():
         simplify_columns(t, np.zeros((5, 1)), 0.1, max_points=1)
     with pytest.raises(ValueError):
         simplify_columns(t, np.zeros((4, 1)), 0.1)
+
+
+@pytest.mark.parametrize("tol", [0.05, 0.2])
+def test_simplified_markov_plan_stays_within_tolerance_at_every_step(tol):
+    geom = make_geom(37, 2.0)
+    _, plan = plan_random(geom, 3, step_deg=0.1, algorithm="markov")
+    small = simplify_plan(plan, tol)
+    # one-step wiggles (0.1 deg) collapse once the tolerance exceeds a step
+    assert small.path_step.size < (0.5 if tol > plan.step_deg else 1.0) * plan.path_step.size
+    assert small.n_steps == plan.n_steps
+    np.testing.assert_array_equal(small.start(), plan.start())
+    np.testing.assert_array_equal(small.end(), plan.end())
+    steps = np.arange(plan.n_steps + 1.0)
+    dev = np.abs(small.angles_at(steps) - plan.angles_at(steps)).max()
+    assert dev <= tol + 1e-12
+    # kept breakpoints are the plan's own, per robot
+    for i in range(plan.n_robots):
+        s0, a0 = plan.path(i)
+        s1, a1 = small.path(i)
+        idx = np.searchsorted(s0, s1)
+        np.testing.assert_array_equal(s0[idx], s1)
+        np.testing.assert_array_equal(a0[idx], a1)
+    # per-robot tolerances; 0 keeps the plan as it is
+    same = simplify_plan(plan, np.zeros(plan.n_robots))
+    np.testing.assert_array_equal(same.path_step, plan.path_step)
+    with pytest.raises(SpecError, match="presimplify_deg"):
+        simplify_plan(plan, -1.0)
