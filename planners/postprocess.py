@@ -75,9 +75,9 @@ DEFAULT_MAX_POINTS = 1024
 DEFAULT_TOLERANCE_DEG = 0.1
 #: RDP tolerance of the stepwise plan before smoothing, deg (0: off). Measured on the
 #: 500-robot SDSS-V layout, step 0.1 deg, 2.0 mm (benchmarks/RESULTS.md): Markov plans
-#: ~980k breakpoints -> ~200k, post-processing 2.3-2.8 s -> 1.3-1.6 s and folds 3-7 s
-#: shorter (the wiggles are gone); greedy plans ~18k -> ~4k breakpoints, the same time
-#: and fold times within 2 %. 0.2 deg moves a point of the beta collision segment by at
+#: ~980k breakpoints -> ~200k, post-processing 2.7-3.2 s -> 1.4-1.8 s and folds 2.6-6.9 s
+#: shorter (the wiggles are gone); greedy plans 14-20k -> 3-6k breakpoints, the same
+#: time, folds 0.1-0.4 s shorter. 0.2 deg moves a point of the beta collision segment by at
 #: most 0.13 mm before smoothing; robots that come too close get it halved.
 DEFAULT_PRESIMPLIFY_DEG = 0.2
 #: Pairs whose clearance falls below this at some step of the plan share one path
