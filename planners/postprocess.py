@@ -17,8 +17,9 @@ Pipeline (:func:`postprocess`):
 2. **Group** (:mod:`planners.timing`): neighbour pairs whose clearance falls below
    ``interaction_mm`` at some step of the plan are edges; each connected component
    shares one path parameter, the other robots are timed alone.
-3. **Time** (:mod:`planners.timing`): time-optimal ``s(t)`` per group (TOPP-RA) under
-   the spec's per-axis velocity and acceleration limits, from rest to rest. Groups are
+3. **Time** (:mod:`planners.timing`): time-optimal ``s(t)`` per group (TOPP-RA, by the
+   ``toppra`` library or the numba kernel: ``backend``) under the spec's per-axis
+   velocity and acceleration limits, from rest to rest. Groups are
    aligned on their end: every robot arrives when the slowest group does, as in the
    plan every robot arrives on its last step.
 4. **Sample and simplify** (:mod:`planners.simplify`): each group is sampled every
@@ -330,9 +331,10 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     sample_s : time step of the dense samples that RDP reduces, s
     grid_steps : longest TOPP-RA grid interval, plan steps
     align : "end" (all groups arrive together) or "start" (all start at t = 0)
-    backend : "toppra" (the library; a group it finds no solution for is timed by the
-        numba kernel and counted in the report's ``timing_fallbacks``) or "numba" (the
-        kernel only, faster) (:func:`planners.timing.time_group`)
+    backend : "toppra" (default: the library; a group it finds no solution for is timed
+        by the numba kernel and counted in the report's ``timing_fallbacks``) or "numba"
+        (the kernel only: the same trajectories 3-5x faster, e.g. for Markov plans)
+        (:func:`planners.timing.time_group`)
     max_retries : verification rounds after the first
     verify : run the checker (False only for timing studies; the report then says so)
 

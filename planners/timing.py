@@ -51,41 +51,36 @@ Backends
 --------
 Both solve the same discretised problem on the same gridpoints:
 
-- ``"numba"`` (default): this module's kernel, :func:`topp_kernel`, about 0.3 ms per
-  group;
-- ``"toppra"``: the ``toppra`` 0.6 library, its ``TOPPRA`` algorithm and seidel LP
-  solver, given the constraints above as precomputed rows
+- ``"toppra"`` (default): the ``toppra`` 0.6 library, its ``TOPPRA`` algorithm and
+  seidel LP solver, given the constraints above as precomputed rows
   (:mod:`planners.timing_toppra`). A group the library finds no solution for is timed
   by the kernel instead (``TimeLaw.solver == "fallback"``, counted by the pipeline's
-  report as ``timing_fallbacks``).
+  report as ``timing_fallbacks``); none did in any plan measured;
+- ``"numba"``: this module's kernel, :func:`topp_kernel`, about 0.3 ms per group, 10-15x
+  faster than the library for the same laws.
 
-Why the library used to fail, and why the default is still the kernel (measured;
-benchmarks/RESULTS.md, "Timing backends"):
+Why the library used to fail (measured; benchmarks/RESULTS.md, "Timing backends"):
+with its own ``JointVelocityConstraint`` / ``JointAccelerationConstraint`` its seidel
+solver solved 0 of 386 groups of a 500-robot SDSS-V fold ("The controllable set at step
+[i / N] can't be computed"). The cause is scaling, not infeasibility: the 2D LP walks
+each violated constraint line with the unnormalised direction ``(-q'', q')``, 1e-5 to
+1e-3 long with ``s`` in plan steps, and bounds the line parameter by 1e10, so from its
+start at the box corner (1e8, 1e8) the optimum is out of reach and the 1D sub-LP ends
+on that artificial bound, which the solver reports as infeasible. It shows where an
+axis creeps or starts (smallest ``q'``, ``q''``) and only after some warm starts (the
+same stage solved cold succeeds). With unit-norm rows, ``s`` rescaled so that the
+kernel's ``sd`` cap fits the solver's box, and each interval's own ``q''`` at both of
+its ends (the library's ``Interpolation`` scheme takes the next interval's ``q''`` at a
+knot), it solves every group of every plan measured (~390-460 groups per fold, greedy
+and Markov, 0 fallbacks), and its laws equal the kernel's within 2e-5 of the duration
+(fold times equal to 2e-6).
 
-- robustness, fixed: with the library's own ``JointVelocityConstraint`` /
-  ``JointAccelerationConstraint`` its seidel solver solved 0 of 386 groups of a
-  500-robot SDSS-V fold ("The controllable set at step [i / N] can't be computed").
-  The cause is scaling, not infeasibility: the 2D LP walks each violated constraint
-  line with the unnormalised direction ``(-q'', q')``, about 1e-4 long with ``s`` in
-  plan steps, and bounds the line parameter by 1e10, so from its start at the box
-  corner (1e8, 1e8) the optimum is out of reach and the 1D sub-LP ends on that
-  artificial bound, which the solver reports as infeasible. It shows where an axis
-  creeps or starts (smallest ``q'``, ``q''``) and only after some warm starts (the
-  same stage solved cold succeeds). With unit-norm rows, ``s`` rescaled so that the
-  kernel's ``sd`` cap fits the solver's box, and each interval's own ``q''`` at both
-  of its ends (the library's ``Interpolation`` scheme takes the next interval's
-  ``q''`` at a knot), it solves every group of every seed measured (about 390 groups
-  per fold, 5 seeds, no fallback), and its laws equal the kernel's within 2e-5 of the
-  duration (fold times equal to 1e-6).
-- speed, not fixed: the library runs its backward and forward passes in Python, about
-  10-13 us per gridpoint plus its solver set-up (which copies the constraint rows
-  element by element), so timing a 500-robot fold (~140k gridpoints, ~150k with the
-  verification rounds) takes 1.7-2.4 s instead of ~0.1 s: the whole post-processing
-  takes 2.35-3.27 s (median 2.70 s, preset ``sdss-v``, 5 seeds, 2-core machine) with
-  the library against 0.59-0.71 s with the kernel, for the same trajectories. That
-  misses the 3 s budget on one seed in five, so the kernel stays the default and the
-  library is the cross-check (tests/planners/test_timing.py and test_postprocess.py
-  compare the two on real plans).
+Cost: the library runs its backward and forward passes in Python, about 10-13 us per
+gridpoint plus a solver set-up that copies the rows element by element. On the
+500-robot SDSS-V benchmark (greedy, 2.0 mm, 5 seeds, pre-simplified plans, 2-core
+machine under load 3.7) the whole post-processing takes 1.8-2.6 s with the library
+(0.56-0.69 s with the kernel), within the 3 s budget; Markov plans take 7-8 s with the
+library against 1.4-1.8 s with the kernel (``backend="numba"``).
 
 Piecewise-linear kinematics
 ---------------------------
@@ -135,7 +130,7 @@ __all__ = [
 
 BACKENDS = ("toppra", "numba")
 #: Backend of :func:`time_group` (and of the post-processing pipeline).
-DEFAULT_BACKEND = "numba"
+DEFAULT_BACKEND = "toppra"
 #: Cap on sd (plan steps / s) where no joint of a group moves; such stretches then take
 #: a negligible time.
 SD_CAP = 1.0e5

@@ -7,8 +7,9 @@ import pytest
 from models.errors import PlanningError
 from models.geometry2d import pair_distances
 from planners.smoothing import smooth_plan, window_for_limits
-from planners.timing import (TimeLaw, group_grid, interaction_groups, interaction_pairs,
-                             law_excess, pl_kinematics, time_group, topp)
+from planners.timing import (DEFAULT_BACKEND, TimeLaw, group_grid, interaction_groups,
+                             interaction_pairs, law_excess, pl_kinematics, time_group,
+                             topp)
 from tests.planners.conftest import make_geom, plan_random
 from tests.planners.test_smoothing import CORNER
 
@@ -186,7 +187,7 @@ def test_static_group_and_scaling():
     assert np.all(np.diff(s) >= 0) and s[0] == law.s[0] and s[-1] == law.s[-1]
     static = TimeLaw.static(3.0)
     assert static.duration == 0.0 and static.s_at([0.0, 5.0]).tolist() == [3.0, 3.0]
-    assert static.solver == "static" and slow.solver == law.solver == "numba"
+    assert static.solver == "static" and slow.solver == law.solver == DEFAULT_BACKEND
 
 
 def test_pl_kinematics_three_point_definition():
