@@ -74,6 +74,7 @@ def test_targets_csv_by_fiber_position(tmp_path):
     (["--greed", "2", "--algorithm", "markov"], "greed"),
     (["--offline", "999"], "999"),
     (["--resolve", "maybe"], "--resolve"),
+    (["--timing-backend", "scipy"], "--timing-backend"),
     (["--algorithm", "capf", "--lambda3", "5"], "lambda3"),
 ])
 def test_bad_input_is_one_line_nonzero_and_writes_nothing(tmp_path, args, words):
@@ -254,3 +255,24 @@ def test_roadmap_planner_and_search_resolution_from_the_cli(tmp_path):
     assert summary["algorithm"] == "roadmap" and summary["resolve"] == "search"
     assert summary["metrics"]["efficiency"] == 1.0
     assert summary["check2d"]["ok"] and summary["check2d"]["n_collisions"] == 0
+
+
+def test_timing_backend_from_the_cli(tmp_path):
+    """The toppra library times the groups by default; --timing-backend numba uses our
+    kernel of the same algorithm: same durations, both within the limits."""
+    runs = {}
+    for backend in ("toppra", "numba"):
+        out = tmp_path / backend
+        args = ["plan", "--layout", "hex:19", "--buffer", "2.0", "--seed", "3", "--out", str(out)]
+        if backend == "numba":
+            args += ["--timing-backend", "numba"]
+        r = run(*args)
+        assert r.returncode == 0, r.stderr
+        assert "groups timed by" in r.stdout
+        runs[backend] = json.loads((out / "summary.json").read_text())
+    solvers = {b: runs[b]["postprocess"]["timing_solvers"] for b in runs}
+    assert set(solvers["toppra"]) == {"toppra"} and set(solvers["numba"]) == {"numba"}
+    assert runs["toppra"]["duration_s"] == pytest.approx(runs["numba"]["duration_s"], rel=1e-3)
+    for s in runs.values():
+        assert max(s["postprocess"]["max_speed_deg_s"]) <= 30.0 * 1.01
+        assert s["check2d"]["ok"]
