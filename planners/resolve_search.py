@@ -92,6 +92,10 @@ class SearchResolveSettings:
         motion it made before it got stuck (latest first)
     search : "sweep" (earliest arrival, one time layer at a time) | "dfs" (Sabater's
         depth-first search); see :class:`planners.roadmap.RoadmapSettings`
+    step0_first : search each group from step 0 first, then with the lead-ins (False:
+        lead-ins first). A Markov run that deadlocks goes on to its step limit, its
+        stuck robots stepping about all that time: keeping that motion delays the fold
+        by the rest of the step limit, so the solver sets this for Markov plans.
     """
 
     action_deg: float = 2.0
@@ -105,6 +109,7 @@ class SearchResolveSettings:
     max_recruits: int = 16
     max_departures: int = 4
     search: str = "sweep"
+    step0_first: bool = False
 
     def __post_init__(self) -> None:
         where = "SearchResolveSettings"
@@ -146,9 +151,19 @@ class PathSet:
                    [angles[ptr[i]:ptr[i + 1]].copy() for i in range(n)])
 
     def to_csr(self, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """CSR arrays (ptr, steps, angles) with every path ending at ``n_steps``."""
+        """CSR arrays (ptr, steps, angles) with every path ending at ``n_steps``.
+
+        Breakpoints after ``n_steps`` are dropped; a path must not move after it."""
         st, an = [], []
-        for s, a in zip(self.steps, self.angles):
+        for i, (s, a) in enumerate(zip(self.steps, self.angles)):
+            if s[-1] > n_steps:
+                if self.motion_end(i) > n_steps:
+                    raise field_error(SpecError, "n_steps", n_steps,
+                                      f">= {self.motion_end(i)} (robot index {i} still moves)",
+                                      "PathSet.to_csr")
+                keep = s < n_steps
+                s = np.append(s[keep], float(n_steps))
+                a = np.vstack([a[keep], a[-1:]])
             if s[-1] < n_steps:
                 s = np.append(s, float(n_steps))
                 a = np.vstack([a, a[-1:]])
@@ -433,6 +448,59 @@ class AlphaBetaWorld:
 _FAR_MM = 1.0e7
 
 
+def trim_tails(geom: ArrayGeometry, paths: PathSet, dest: np.ndarray, skip: np.ndarray,
+               md: float) -> list[int]:
+    """Robots that reach their destination and leave it again stay there instead, where
+    that is safe. Updates ``paths`` in place; returns the robot indices trimmed.
+
+    A Markov run that deadlocks goes on to its step limit, and the arrived neighbours of
+    its stuck robots keep stepping aside and back (Eq. 10) all that time: moving
+    obstacles for the search, and a plan as long as the step limit. Robot j's path is
+    cut at its first arrival (then it holds its destination) when, at every step from
+    there to the end, its held capsule keeps the step rule (``buffer_j + buffer_k + MD``)
+    with the *current* path of every Eq. 4 neighbour k; robots are taken in index order,
+    each against the paths as trimmed so far, so every pair stays checked. The
+    destination is clear of fiducials and offline robots (the caller checked it).
+
+    Parameters
+    ----------
+    geom : ArrayGeometry; paths : PathSet (planning frame, step clock)
+    dest : (n, 2) deg, destinations; skip : (n,) bool, robots left alone (stuck, offline)
+    md : float, step-rule margin MD, mm
+    """
+    l_alpha = float(geom.spec.alpha_length_mm)
+    s0 = float(geom.spec.segment_start_mm)
+    n = geom.n_robots
+    end = max((paths.motion_end(i) for i in range(n)), default=0.0)
+    trimmed = []
+    for j in range(n):
+        if skip[j]:
+            continue
+        st, an = paths.steps[j], paths.angles[j]
+        at = np.flatnonzero(np.all(np.abs(an - dest[j]) < 1e-9, axis=1))
+        if at.size == 0 or paths.motion_end(j) <= st[at[0]]:
+            continue                    # never arrives, or arrives once and stays
+        first = float(st[at[0]])
+        ks = np.arange(math.floor(first), math.ceil(end) + 1, dtype=np.float64)
+        bj = geom.base_xy[j]
+        held = _segments_at(float(bj[0]), float(bj[1]), np.ascontiguousarray(
+            np.repeat(dest[j][None, :], ks.size, axis=0)), l_alpha, s0, float(geom.seg_end[j]))
+        ok = True
+        for k in geom.nbr_idx[geom.nbr_ptr[j]:geom.nbr_ptr[j + 1]]:
+            k = int(k)
+            bk = geom.base_xy[k]
+            seg_k = _segments_at(float(bk[0]), float(bk[1]), np.ascontiguousarray(paths.sample(k, ks)),
+                                 l_alpha, s0, float(geom.seg_end[k]))
+            if _pair_conflict(held, seg_k, float(geom.buffer[j] + geom.buffer[k]) + md):
+                ok = False
+                break
+        if ok:
+            paths.steps[j] = np.append(st[:at[0] + 1], st[-1])
+            paths.angles[j] = np.vstack([an[:at[0] + 1], dest[j][None, :]])
+            trimmed.append(j)
+    return trimmed
+
+
 # ------------------------------------------------------------------------------------
 # Resolving groups
 # ------------------------------------------------------------------------------------
@@ -465,15 +533,17 @@ class SearchOutcome:
     Attributes
     ----------
     paths : PathSet with the paths of every resolved group replaced (planning frame)
-    n_steps : int, length of the plan on the step clock (>= the stepwise run's)
+    n_steps : int, length of the plan on the step clock: its last motion
     groups : list of GroupResult, in the order processed
     seconds : float, wall time of the search
+    trimmed : robot indices whose detours after arriving were cut (:func:`trim_tails`)
     """
 
     paths: PathSet
     n_steps: int
     groups: list = field(default_factory=list)
     seconds: float = 0.0
+    trimmed: list = field(default_factory=list)
 
     @property
     def failed(self) -> list[np.ndarray]:
@@ -516,6 +586,17 @@ def _traj_from_path(steps: np.ndarray, angles: np.ndarray) -> ArmTrajectory:
                          np.asarray(angles, dtype=np.float64)[[0, -1]], 0, 0, 0)
 
 
+def _lead_in_end(world: AlphaBetaWorld, i: int, deadlocked: np.ndarray) -> float:
+    """Where robot i's lead-in ends: its last motion, or the last motion of its
+    neighbours that are not deadlocked if that is earlier. A Markov run that deadlocks
+    goes on to its step limit and its stuck robots step about all that time; once their
+    neighbours have stopped that motion leads nowhere, and keeping it would only delay
+    the fold."""
+    settle = max((world.paths.motion_end(int(j)) for j in world.neighbours(i)
+                  if not deadlocked[int(j)]), default=0.0)
+    return min(world.paths.motion_end(i), settle)
+
+
 def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, dest: np.ndarray,
                  movable: np.ndarray, deadlocked: np.ndarray, settings: SearchResolveSettings,
                  rng: np.random.Generator):
@@ -527,7 +608,7 @@ def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, de
     ``settings.max_recruits`` in all): they join below it, free to leave their stepwise
     paths (their lead-in) to make way. Two starts are tried: (1) each deadlocked robot
     may keep, for as long as it likes, the stepwise motion it made before it got stuck;
-    (2) it is searched from step 0.
+    (2) it is searched from step 0 (the other way round with ``settings.step0_first``).
 
     Returns (success, robot indices re-planned, {robot: (steps, angles)}, tree nodes,
     the deadlocked robot that most often found no trajectory or -1).
@@ -536,11 +617,11 @@ def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, de
     nodes = 0
     agents: list[int] = []
     fails: dict[int, int] = {}
-    for keep_prefix in (True, False):
+    for keep_prefix in ((False, True) if settings.step0_first else (True, False)):
         agents = [int(i) for i in group]
         lead = {}
         if keep_prefix:
-            lead = {i: _prefix(world.paths, i, world.paths.motion_end(i)) for i in agents}
+            lead = {i: _prefix(world.paths, i, _lead_in_end(world, i, deadlocked)) for i in agents}
 
         def make_arm(a: int, higher: dict[int, ArmTrajectory], arms: frozenset) -> Arm:
             i = agents[a]
@@ -619,6 +700,7 @@ def resolve_groups(geom: ArrayGeometry, paths: PathSet, n_steps: int, groups: li
     for g in groups:
         deadlocked[g] = True
     out = SearchOutcome(paths, int(n_steps))
+    out.trimmed = trim_tails(geom, paths, dest, deadlocked | ~np.asarray(movable, bool), md)
     def context(robots) -> dict[int, bytes]:
         near = set(int(i) for i in robots)
         for i in robots:
@@ -648,5 +730,8 @@ def resolve_groups(geom: ArrayGeometry, paths: PathSet, n_steps: int, groups: li
                 out.n_steps = max(out.n_steps, int(math.ceil(float(st[-1]))))
         out.groups.append(GroupResult(np.asarray(group), np.asarray(members), ok, tried,
                                       time.perf_counter() - t0, int(hardest)))
+    # the plan ends with its last motion (the run it came from may have gone on longer)
+    last = max((paths.motion_end(i) for i in range(geom.n_robots)), default=0.0)
+    out.n_steps = max(1, int(math.ceil(last)))
     out.seconds = time.perf_counter() - clock
     return out

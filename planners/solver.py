@@ -178,9 +178,9 @@ def _continue(geom: ArrayGeometry, outcome, groups: list[np.ndarray], goal: np.n
                            settings.continuation)
     offset = float(outcome.n_steps)
     for i, (st, an) in cont.paths.items():
-        k = 1 if paths.steps[i][-1] >= offset else 0      # the continuation starts where i is
-        paths.steps[i] = np.concatenate([paths.steps[i], offset + st[k:]])
-        paths.angles[i] = np.vstack([paths.angles[i], an[k:]])
+        keep = paths.steps[i] < offset          # i stands still from its last motion on
+        paths.steps[i] = np.concatenate([paths.steps[i][keep], offset + st])
+        paths.angles[i] = np.vstack([paths.angles[i][keep], an])
         outcome.n_steps = max(outcome.n_steps, int(np.ceil(offset + st[-1])))
     return cont
 
