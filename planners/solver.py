@@ -10,8 +10,10 @@ resolvers (``PlannerSettings.resolve``):
 * ``"search"`` (default): each group is re-planned by the state-time search of
   :mod:`planners.resolve_search` (Sabater 2018), keeping every target; the other robots'
   stepwise paths are its moving obstacles and the new paths are merged into the plan
-  on the same step clock (the plan may grow longer). Only groups the search cannot
-  resolve get a replaced target, as below;
+  on the same step clock. A group the search cannot resolve goes on alone with Markov
+  moves after the plan's end, everyone else standing still
+  (:mod:`planners.continuation`). Only groups both fail on get a replaced target, as
+  below;
 * ``"replace"``: one robot per group gets a new random target and everything is
   planned again (Sayres 2021 Sect. 5.2), until the array converges or ``max_rounds``
   is spent.
@@ -23,12 +25,14 @@ resolution: ``n_search_groups`` / ``n_search_robots`` (deadlocked groups / robot
 final plan resolves by search), ``n_search_replanned`` (robots whose paths the search
 changed, recruited neighbours included), ``n_search_failed_groups`` (over all rounds),
 ``n_replace_groups`` (groups resolved by replacing a target), ``search_s`` (wall time of
-the searches).
+the searches), ``n_continued_groups`` / ``n_continued_robots`` (groups the final plan
+resolves by continuation), ``continuation_s``.
 """
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from dataclasses import replace as _with
 
 import numpy as np
 
@@ -50,8 +54,8 @@ class PlannerSettings:
     """Parameters of one planning job.
 
     algorithm : "greedy" | "markov" (the stepwise kernel) | "roadmap" (Sabater's
-    prioritized planner on every robot, :mod:`planners.roadmap_array`); step_deg : angular step (deg); greed, phobia : MC
-    parameters in [0, 1]; direction : "reverse" | "forward"; max_steps : step limit
+    prioritized planner on every robot, :mod:`planners.roadmap_array`); step_deg :
+    angular step (deg); greed, phobia : MC parameters in [0, 1]; direction : "reverse" | "forward"; max_steps : step limit
     (default 1000 deg / step, as in the paper); max_rounds : deadlock-resolution rounds.
     resolve : "search" (re-plan each deadlocked group with the state-time search of
     :mod:`planners.resolve_search`, keeping its targets; replace a target only where the
@@ -165,8 +169,6 @@ def _continue(geom: ArrayGeometry, outcome, groups: list[np.ndarray], goal: np.n
               settings: PlannerSettings, seed: int):
     """Markov continuation of the groups the search left (:mod:`planners.continuation`),
     appended to ``outcome.paths`` after ``outcome.n_steps`` (both updated in place)."""
-    from dataclasses import replace as _with
-
     paths = outcome.paths
     now = np.array([a[-1] for a in paths.angles])
 
@@ -313,8 +315,8 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
                 # what the search could not untangle goes on alone, after the plan's end
                 cont = _continue(geom, outcome, to_replace, goal, settings, seed)
                 continuation_s += cont.seconds
-                n_continued_groups += len(cont.solved)
-                n_continued_robots += len(cont.paths)
+                n_continued_groups = len(cont.solved)        # of the final round
+                n_continued_robots = len(cont.paths)
                 stuck[list(cont.paths)] = False
                 to_replace = [g for k, g in enumerate(to_replace) if k not in cont.solved]
                 hardest = outcome.failed_hardest

@@ -467,7 +467,9 @@ def print_summary(summary: dict, out: Path) -> None:
         ("deadlocked", str(m["n_deadlocked"])),
         *([("kept by search", f"{m['n_search_robots']} robots, {m['n_search_groups']} groups, "
                               f"{m['search_s']:.1f} s ({m['n_search_failed_groups']} "
-                              f"failed)")]
+                              f"failed)"),
+           ("kept by continuation", f"{m.get('n_continued_robots', 0)} robots, "
+                                    f"{m.get('n_continued_groups', 0)} groups")]
           if summary.get("resolve") == "search" else []),
         ("fold time (stepwise)", f"{m['fold_time_s']:.2f} s"),
         ("trajectory duration", f"{summary['duration_s']:.2f} s ({summary['trajectories']})"),
