@@ -59,6 +59,9 @@ Both solve the same discretised problem on the same gridpoints:
 - ``"numba"``: this module's kernel, :func:`topp_kernel`, about 0.3 ms per group, 10-15x
   faster than the library for the same laws.
 
+With ``"toppra"``, groups of more than :data:`TOPPRA_MAX_ROBOTS` robots go to the kernel
+(``TimeLaw.solver == "numba-large"``).
+
 Why the library used to fail (measured; benchmarks/RESULTS.md, "Timing backends"):
 with its own ``JointVelocityConstraint`` / ``JointAccelerationConstraint`` its seidel
 solver solved 0 of 386 groups of a 500-robot SDSS-V fold ("The controllable set at step
@@ -116,6 +119,7 @@ from planners.smoothing import SmoothPath
 __all__ = [
     "BACKENDS",
     "DEFAULT_BACKEND",
+    "TOPPRA_MAX_ROBOTS",
     "SD_CAP",
     "STRAIGHT_STEPS",
     "TimeLaw",
@@ -131,6 +135,12 @@ __all__ = [
 BACKENDS = ("toppra", "numba")
 #: Backend of :func:`time_group` (and of the post-processing pipeline).
 DEFAULT_BACKEND = "toppra"
+#: With the toppra backend, groups of more robots than this are timed by the kernel
+#: (solver "numba-large"): the library's Python loops grow with the joints, and a crowded
+#: Markov plan at 3.5 mm on the 547 grid is one group of 547 robots (1094 joints), 35 s
+#: with the library, 1.5 s with the kernel, the same law. SDSS-V groups at 2-2.5 mm have
+#: at most ~7 robots.
+TOPPRA_MAX_ROBOTS = 32
 #: Cap on sd (plan steps / s) where no joint of a group moves; such stretches then take
 #: a negligible time.
 SD_CAP = 1.0e5
@@ -276,7 +286,9 @@ class TimeLaw:
     sdd : (N,) d2s/dt2 on each interval, steps/s^2
     t : (N+1,) time of each gridpoint, s (t[0] = 0)
     solver : what computed it: "numba" (the kernel), "toppra" (the library), "fallback"
-        (the kernel, after the library found no solution) or "static" (nothing moves)
+        (the kernel, after the library found no solution), "numba-large" (the kernel, for
+        a group too large for the library, :data:`TOPPRA_MAX_ROBOTS`) or "static"
+        (nothing moves)
     """
 
     s: np.ndarray
@@ -634,7 +646,7 @@ def time_group(path: SmoothPath, robots, max_speed, max_accel, *, grid_steps: fl
                backend: str = DEFAULT_BACKEND, limit_margin: float = 0.999,
                moving_range: np.ndarray | None = None, span=(None, None),
                sd_cap: float = SD_CAP, straight_steps: float | None = None,
-               fallback: bool = True) -> TimeLaw:
+               fallback: bool = True, toppra_max_robots: int | None = TOPPRA_MAX_ROBOTS) -> TimeLaw:
     """Time-optimal shared ``s(t)`` of a group of robots (one path, 2 joints per robot).
 
     Parameters
@@ -654,6 +666,8 @@ def time_group(path: SmoothPath, robots, max_speed, max_accel, *, grid_steps: fl
     fallback : with ``backend="toppra"``, time the group with the kernel when the
         library finds no solution (the law's ``solver`` is then "fallback"); False
         raises :class:`models.errors.PlanningError` instead
+    toppra_max_robots : with ``backend="toppra"``, larger groups are timed by the kernel
+        (solver "numba-large"); None = no limit
 
     Returns
     -------
@@ -679,6 +693,8 @@ def time_group(path: SmoothPath, robots, max_speed, max_accel, *, grid_steps: fl
     qd = np.ascontiguousarray(path.evaluate(grid, robots, 1).reshape(grid.size, 2 * k))
     mid = 0.5 * (grid[1:] + grid[:-1])
     qdd = np.ascontiguousarray(path.evaluate(mid, robots, 2).reshape(mid.size, 2 * k))
+    if backend == "toppra" and toppra_max_robots is not None and k > toppra_max_robots:
+        return replace(topp(grid, qd, qdd, vmax, amax, sd_cap=sd_cap), solver="numba-large")
     if backend == "toppra":
         law = _topp_toppra(grid, qd, qdd, vmax, amax, sd_cap)
         if law is not None:

@@ -148,6 +148,24 @@ def test_toppra_backend_falls_back_to_the_kernel_only_when_the_library_fails(mon
         time_group(sp, robots, (V, V), (A, A), backend="toppra", fallback=False)
 
 
+def test_groups_above_the_toppra_size_cap_go_to_the_kernel():
+    """toppra_max_robots: a group larger than the cap is timed by the kernel (solver
+    "numba-large"), with the same law the library gives it without the cap."""
+    sp, groups = real_groups()
+    robots = max(groups, key=len)
+    assert robots.size >= 2
+    capped = time_group(sp, robots, (V, V), (A, A), backend="toppra",
+                        toppra_max_robots=robots.size - 1)
+    free = time_group(sp, robots, (V, V), (A, A), backend="toppra", toppra_max_robots=None)
+    ker = time_group(sp, robots, (V, V), (A, A), backend="numba")
+    assert capped.solver == "numba-large" and free.solver == "toppra"
+    assert capped.duration == ker.duration
+    assert free.duration == pytest.approx(capped.duration, rel=1e-4)
+    at_cap = time_group(sp, robots, (V, V), (A, A), backend="toppra",
+                        toppra_max_robots=robots.size)
+    assert at_cap.solver == "toppra"
+
+
 def test_grid_is_coarse_only_on_straight_cruises():
     """Every knot is a gridpoint, curved intervals are cut at grid_steps, and the coarse
     straight intervals cost (almost) nothing against 4 steps everywhere."""
