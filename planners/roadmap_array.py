@@ -133,7 +133,7 @@ def roadmap_pass(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movab
     world = AlphaBetaWorld(geom, paths, movable, md, step_deg)
     full = settings.roadmap_settings(step_deg)
     rs = replace(full, max_nodes=min(quick_nodes, full.max_nodes or quick_nodes),
-                    max_paths=min(quick_paths, full.max_paths or quick_paths))
+                 max_paths=min(quick_paths, full.max_paths or quick_paths))
     order = travel_priority(start, dest, np.flatnonzero(movable), step_deg)
     planned = np.zeros(n, dtype=bool)
     todo = [int(i) for i in order]
