@@ -40,7 +40,7 @@ import numpy as np
 from models.array import ArrayGeometry
 from models.errors import SpecError, field_error
 from planners.resolve_search import AlphaBetaWorld, PathSet, SearchResolveSettings
-from planners.roadmap import plan_arm
+from planners.roadmap import edge_time, plan_arm
 
 
 @dataclass
@@ -87,12 +87,15 @@ class RoadmapPass:
 
 def travel_priority(start: np.ndarray, dest: np.ndarray, robots: np.ndarray,
                     vmax: float) -> np.ndarray:
-    """Sabater 2018 Sect. 7: robots with the longest direct travel time first.
+    """Sabater 2018 Sect. 7: robots with the longest direct travel time first (Eq. 5,
+    :func:`planners.roadmap.edge_time`, as :func:`planners.roadmap.default_priority`,
+    without building each robot's black boxes).
 
     start, dest : (n, 2) deg; robots : (m,) indices to order; vmax : deg per step.
     Returns (m,) robot indices (stable: ties keep index order).
     """
-    est = np.max(np.abs(dest[robots] - start[robots]), axis=1) / vmax
+    v = np.full(2, float(vmax))
+    est = np.array([edge_time(start[i], dest[i], v) for i in robots])
     return robots[np.argsort(-est, kind="stable")]
 
 

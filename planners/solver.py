@@ -311,6 +311,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             resolved = outcome.resolved_robots
             stuck = stuck.copy()
             stuck[resolved] = False
+            failed_hardest = outcome.failed_hardest
             if to_replace and settings.continuation > 0:
                 # what the search could not untangle goes on alone, after the plan's end
                 cont = _continue(geom, outcome, to_replace, goal, settings, seed)
@@ -319,10 +320,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
                 n_continued_robots = len(cont.paths)
                 stuck[list(cont.paths)] = False
                 to_replace = [g for k, g in enumerate(to_replace) if k not in cont.solved]
-                hardest = outcome.failed_hardest
-                failed_hardest = [h for k, h in enumerate(hardest) if k not in cont.solved]
-            else:
-                failed_hardest = outcome.failed_hardest
+                failed_hardest = [h for k, h in enumerate(failed_hardest) if k not in cont.solved]
         if not to_replace or not resolve or rounds >= settings.max_rounds:
             break
         rounds += 1
