@@ -42,7 +42,7 @@ from planners.apf import ApfSettings, apf_target_margin_mm, plan_apf_reconfigura
 from planners.capf import CapfSettings  # noqa: E402
 from planners.solver import PlannerSettings, plan_reconfiguration  # noqa: E402
 from planners.targets import random_targets  # noqa: E402
-from planners.trajectory import Trajectory  # noqa: E402
+from models.trajectory import Trajectory  # noqa: E402
 from validation.checker2d import check_trajectory  # noqa: E402
 
 PLANNERS = ("greedy/replace", "greedy/search", "markov/search", "roadmap/search", "apf", "capf")

@@ -57,6 +57,7 @@ from models.array import ArrayGeometry  # noqa: E402
 from models.layout import Layout  # noqa: E402
 from models.robot import load_spec  # noqa: E402
 from planners.postprocess import DEFAULT_PRESIMPLIFY_DEG, postprocess  # noqa: E402
+from validation.checker2d import check_trajectory  # noqa: E402
 from planners.smoothing import smooth_plan, window_for_limits  # noqa: E402
 from planners.solver import PlannerSettings, plan_reconfiguration  # noqa: E402
 from planners.stepwise import max_displacement  # noqa: E402
@@ -109,13 +110,13 @@ def bench_main(seeds, preset="sdss-v-production", algorithm="greedy",
     for s in seeds:
         plans.append(make_plan(geom, s, 0.1, algorithm))
     t0 = time.perf_counter()
-    postprocess(plans[0], geom, backend=backend,       # warm-up (numba compile / cache load)
+    postprocess(plans[0], geom, backend=backend, verifier=check_trajectory,       # warm-up (numba compile / cache load)
                 presimplify_deg=presimplify)
     cold = time.perf_counter() - t0
     rows = []
     for s, plan in zip(seeds, plans):
         t0 = time.perf_counter()
-        traj, rep = postprocess(plan, geom, backend=backend, presimplify_deg=presimplify)
+        traj, rep = postprocess(plan, geom, backend=backend, presimplify_deg=presimplify, verifier=check_trajectory)
         wall = time.perf_counter() - t0
         rows.append((s, plan, rep, wall))
         st = rep.stage_seconds
@@ -186,13 +187,13 @@ def bench_backends(seeds, preset="sdss-v-production", algorithm="greedy") -> lis
     cold = {}
     for be in ("numba", "toppra"):
         t0 = time.perf_counter()
-        postprocess(plans[0], geom, backend=be)        # warm-up (compile / cache / import)
+        postprocess(plans[0], geom, backend=be, verifier=check_trajectory)        # warm-up (compile / cache / import)
         cold[be] = time.perf_counter() - t0
     res = {}
     for s, plan in zip(seeds, plans):
         for be in ("numba", "toppra"):
             t0 = time.perf_counter()
-            _, rep = postprocess(plan, geom, backend=be)
+            _, rep = postprocess(plan, geom, backend=be, verifier=check_trajectory)
             res[s, be] = (time.perf_counter() - t0, rep)
             print(f"  seed {s} {be}: total {res[s, be][0]:.2f} s (time {rep.stage_seconds['time']:.2f}); "
                   f"fold {rep.duration_s:.3f} s; points {rep.points_per_axis_median:.0f}/"
@@ -240,7 +241,7 @@ def bench_gc(seeds) -> list[str]:
     for s in seeds:
         plan = make_plan(geom, s, 0.25)
         t0 = time.perf_counter()
-        _, rep = postprocess(plan, geom)
+        _, rep = postprocess(plan, geom, verifier=check_trajectory)
         wall = time.perf_counter() - t0
         rows.append((s, plan, rep, wall))
         print(f"  GC 547 seed {s}: fold {plan.metrics['fold_time_s']:.2f} -> {rep.duration_s:.2f} s, "
@@ -268,14 +269,14 @@ def bench_compare(seeds) -> list[str]:
     spec = load_spec("sdss-v-production")
     geom = ArrayGeometry(spec, Layout.sdss_v_fps(), 2.0)
     plans = [make_plan(geom, s, 0.1) for s in seeds]
-    postprocess(plans[0], geom)
+    postprocess(plans[0], geom, verifier=check_trajectory)
 
     def run(**kw):
         out = []
         for plan in plans:
             t0 = time.perf_counter()
             try:
-                _, rep = postprocess(plan, geom, **kw)
+                _, rep = postprocess(plan, geom, **kw, verifier=check_trajectory)
                 out.append((time.perf_counter() - t0, rep))
             except Exception as exc:                   # report, do not stop the study
                 out.append((float("nan"), exc))

@@ -44,7 +44,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from models.mjcf import build_model  # noqa: E402
-from planners.trajectory import Trajectory  # noqa: E402
+from models.trajectory import Trajectory  # noqa: E402
 from tests.planners.conftest import make_geom, plan_random  # noqa: E402
 from twin.record import record_run  # noqa: E402
 from twin.render import (FrameRenderer, RenderSettings, frame_timeline, render_run,  # noqa: E402

@@ -103,7 +103,7 @@ def run_trial(alg: str, buffer_mm: float, step: float, trial: int, seed: int,
         if resolver == "search":
             out["targets_kept"] = int(np.sum(np.all(plan.targets == targets, axis=1)))
             if check:
-                from planners.trajectory import Trajectory
+                from models.trajectory import Trajectory
                 from validation.checker2d import check_trajectory
 
                 t1 = time.perf_counter()

@@ -37,7 +37,7 @@ if str(ROOT) not in sys.path:
 import mujoco  # noqa: E402
 
 from models.mjcf import ModelOptions, build_model  # noqa: E402
-from planners.trajectory import Trajectory  # noqa: E402
+from models.trajectory import Trajectory  # noqa: E402
 from tests.planners.conftest import make_geom, plan_random  # noqa: E402
 from twin.sim import SimSettings, simulate  # noqa: E402
 from bench_common import cpu_model, load_average, command_line  # noqa: E402

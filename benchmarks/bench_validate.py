@@ -50,6 +50,7 @@ from models.geometry import geometry_for_spec  # noqa: E402
 from models.layout import Layout  # noqa: E402
 from models.robot import load_spec  # noqa: E402
 from planners.postprocess import postprocess  # noqa: E402
+from validation.checker2d import check_trajectory  # noqa: E402
 from planners.solver import PlannerSettings, plan_reconfiguration  # noqa: E402
 from planners.stepwise import max_displacement  # noqa: E402
 from planners.targets import random_targets  # noqa: E402
@@ -89,7 +90,7 @@ def make_fold(layout_name: str, seed: int, step_deg: float = 0.1):
     t0 = time.perf_counter()
     plan = plan_reconfiguration(geom, targets, PlannerSettings(step_deg=step_deg, resolve="replace"), rng,
                                 resolve=True)
-    traj, post = postprocess(plan, geom)
+    traj, post = postprocess(plan, geom, verifier=check_trajectory)
     return spec, lay, traj.reversed(), time.perf_counter() - t0
 
 

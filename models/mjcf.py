@@ -34,8 +34,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -45,6 +43,7 @@ import trimesh
 
 from models.errors import SpecError
 from models.geometry import RobotGeometry, geometry_for_spec
+from models.files import atomic_write_bytes
 from models.layout import Layout
 from models.robot import RobotSpec, load_tables
 
@@ -629,26 +628,15 @@ def export_model(spec: RobotSpec, layout: Layout, out_dir: str | Path,
     files: dict[str, trimesh.Trimesh] = {}
     s = build_spec(spec, layout, geometry, options, mesh_files=files)
     for fname, mesh in files.items():
-        _atomic_write(mesh_dir / fname, mesh.export(file_type="stl"))
+        atomic_write_bytes(mesh_dir / fname, mesh.export(file_type="stl"))
     s.modelfiledir = str(out)
     try:
         s.compile()
     except ValueError as exc:
         raise SpecError(f"MuJoCo could not compile the exported model: {exc}") from None
     xml_path = out / MODEL_FILE
-    _atomic_write(xml_path, s.to_xml().encode("utf-8"))
+    atomic_write_bytes(xml_path, s.to_xml().encode("utf-8"))
     return xml_path
-
-
-def _atomic_write(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 __all__ = ["BIT_ALPHA", "BIT_BETA", "CAMERAS", "COLLISION_CLASS", "VISUAL_CLASS", "ModelIndex",

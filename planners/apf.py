@@ -113,7 +113,7 @@ The kernel records each axis's path online with a swing-door filter (kept points
 original Euler samples; linear interpolation between them is within
 ``simplify_tol_deg`` of every sample), then axes with more than ``max_points``
 breakpoints go through :func:`planners.simplify.simplify_axis` (RDP, tolerance raised
-until they fit). :class:`ApfResult` holds the :class:`planners.trajectory.Trajectory`;
+until they fit). :class:`ApfResult` holds the :class:`models.trajectory.Trajectory`;
 :func:`apf_plan` turns a result into a :class:`planners.plan.Plan` on a step clock
 ``step_s = dt`` with the solver's metric keys.
 
@@ -133,7 +133,7 @@ from models.errors import SpecError, TargetError, UnknownRobotError, field_error
 from models.kinematics import forward, sample_patrol_zone
 from planners.plan import DEADLOCKED, OFFLINE, REACHED, Plan
 from planners.simplify import simplify_axis
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 
 DEG = math.pi / 180.0
 #: Collision models of :class:`ApfSettings`.

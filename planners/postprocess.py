@@ -28,7 +28,8 @@ Pipeline (:func:`postprocess`):
    exact samples of the timed path, so their slopes and three-point accelerations (the
    definitions of :func:`planners.timing.pl_kinematics`) are within the limits; a group
    whose measured values exceed them anyway (rounding) is slowed down uniformly.
-5. **Verify**: :func:`validation.checker2d.check_trajectory` at ``buffer_mm -
+5. **Verify**: the ``verifier`` handed in by the caller (the pipeline passes the
+   independent 2D checker of ``validation/``; planners never import it) at ``buffer_mm -
    budget_mm`` (Eq. 12's sigma_smooth, 0.03 mm by default). A collision between two
    groups merges them (they met at different ``s``); a collision inside a group, or
    with a fiducial, halves the smoothing window, the tolerance and the
@@ -47,20 +48,24 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, fields
+from typing import Any, Callable
 
 import numpy as np
 
 from models.array import ArrayGeometry
 from models.errors import PlanningError, SpecError, field_error
+from models.trajectory import Trajectory
 from planners.plan import Plan
 from planners.simplify import simplify_columns, simplify_plan
 from planners.smoothing import (METHODS, SmoothPath, plan_deviation, smooth_plan,
                                 window_for_limits)
 from planners.timing import (BACKENDS, DEFAULT_BACKEND, TimeLaw, interaction_groups,
                              interaction_pairs, pl_kinematics, time_group)
-from planners.trajectory import Trajectory
 
-__all__ = ["PostprocessReport", "TimedPath", "postprocess", "DEFAULT_BUDGET_MM",
+#: ``verifier(trajectory, spec, layout, buffer_mm) -> report`` (see :func:`postprocess`).
+Verifier = Callable[..., Any]
+
+__all__ = ["PostprocessReport", "Verifier", "TimedPath", "postprocess", "DEFAULT_BUDGET_MM",
            "DEFAULT_TOLERANCE_DEG", "DEFAULT_PRESIMPLIFY_DEG", "DEFAULT_INTERACTION_MM",
            "DEFAULT_MAX_POINTS", "ALIGNMENTS"]
 
@@ -196,10 +201,13 @@ class PostprocessReport:
     stage_seconds: dict = field(default_factory=dict)
     #: The smooth timed motion behind the trajectory (not serialised).
     timed: TimedPath | None = field(default=None, repr=False, compare=False)
+    #: The verifier's report on the whole returned trajectory, when its last round
+    #: checked all of it (not serialised); else None.
+    final_check: Any = field(default=None, repr=False, compare=False)
 
     def to_dict(self) -> dict:
         """JSON-ready figures (everything but ``timed``; non-finite numbers become None)."""
-        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "timed"}
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("timed", "final_check")}
         d["stage_seconds"] = dict(d["stage_seconds"])
         d["timing_solvers"] = dict(d["timing_solvers"])
         for k, v in d.items():
@@ -311,7 +319,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                 align: str = "end",
                 backend: str = DEFAULT_BACKEND,
                 max_retries: int = 8,
-                verify: bool = True) -> tuple[Trajectory, PostprocessReport]:
+                verifier: Verifier | None) -> tuple[Trajectory, PostprocessReport]:
     """Smooth, time, simplify and re-verify a plan (see the module docstring).
 
     Parameters
@@ -336,7 +344,11 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         (the kernel only: the same trajectories 3-5x faster, e.g. for Markov plans)
         (:func:`planners.timing.time_group`)
     max_retries : verification rounds after the first
-    verify : run the checker (False only for timing studies; the report then says so)
+    verifier : ``verifier(trajectory, spec, layout, buffer_mm) -> report`` with ``ok``,
+        ``collisions``, ``pair_ids``, ``pair_min_distance_mm``, ... (the 2D checker of
+        ``validation/``); required, so that nobody forgets it: ``None`` skips the
+        verification (timing studies only; the report then says so). When the last
+        round checked the whole trajectory, its report is ``report.final_check``.
 
     Returns
     -------
@@ -386,7 +398,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     changed = np.ones(n, dtype=bool)           # robots whose trajectory changed since last check
     id_index = {int(r): i for i, r in enumerate(plan.robot_ids)}
     start_cfg, end_cfg = plan.start(), plan.end()
-    near = _verify_neighbours(geom, verify_buffer) if verify else None
+    near = _verify_neighbours(geom, verify_buffer) if verifier is not None else None
     ledger = _ClearanceLedger(2.0 * verify_buffer, verify_buffer + spec.fiducial_buffer_mm)
 
     rounds = retries = merges = tightened = repaired = 0
@@ -409,20 +421,18 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         t0 = time.perf_counter()
         traj = _assemble(plan, groups, align, start_cfg, end_cfg)
         stages["simplify"] += time.perf_counter() - t0
-        if not verify:
+        if verifier is None:
             break
         # 5. verification: everything in the first round, then the robots whose
         #    trajectory changed and their neighbours (other pairs are unchanged up to a
         #    common time shift, so their earlier result stands)
         t0 = time.perf_counter()
-        from validation.checker2d import check_trajectory  # validation depends on planners
-
         if rounds == 0:
             sub = traj
         else:
             sel = np.flatnonzero(changed | (near @ changed.astype(np.int64) > 0))
             sub = _subset(traj, sel)
-        check = check_trajectory(sub, spec, geom.layout, verify_buffer)
+        check = verifier(sub, spec, geom.layout, verify_buffer)
         ledger.update(check)
         stages["verify"] += time.perf_counter() - t0
         rounds += 1
@@ -475,13 +485,14 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         for g in dirty:
             changed[labels == g] = True
 
-    report = _report(plan, traj, groups, labels, path, ledger if verify else None, spec,
+    report = _report(plan, traj, groups, labels, path, ledger if verifier is not None else None, spec,
                      buffer_mm, budget_mm, verify_buffer, smoothing, window_steps, window,
                      tolerance_deg, max_points, sample_s, interaction_mm, align, backend, rounds,
                      retries, merges, tightened, repaired, stages, clock)
     report.presimplify_deg = float(presimplify_deg)
     report.plan_breakpoints = int(plan.path_step.size)
     report.smoothed_breakpoints = n_smoothed
+    report.final_check = check if verifier is not None and sub is traj else None
     return traj, report
 
 

@@ -29,7 +29,7 @@ from planners.solver import ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings, 
 from planners.stepwise import max_displacement
 from planners.targets import random_targets
 from planners.timing import BACKENDS as TIMING_BACKENDS
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 from twin.run_dir import write_run
 from validation.checker2d import check_trajectory
 
@@ -246,6 +246,7 @@ def plan(
 
         with err_console.status("smoothing, timing, simplifying, verifying"):
             traj, post = postprocess(result, geom, budget_mm=budget, max_points=max_points,
+                                     verifier=check_trajectory,
                                      backend=timing_backend)
         check_buffer = post.verify_buffer_mm
     check = check_trajectory(traj, spec, lay, check_buffer)

@@ -42,7 +42,7 @@ import rerun as rr
 
 from models.errors import RfpError
 from models.mjcf import RGBA, TwinModel
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 from twin.sim import SimReport, SimSettings, simulate
 
 #: Name of the time line.

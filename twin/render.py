@@ -143,7 +143,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from models.mjcf import CAMERAS, TwinModel, build_model  # noqa: E402
-from planners.trajectory import Trajectory  # noqa: E402
+from models.trajectory import Trajectory  # noqa: E402
 from twin.sim import SimReport, SimSettings, simulate  # noqa: E402
 
 # -- constants ---------------------------------------------------------------------

@@ -29,7 +29,7 @@ from models.kinematics import forward
 from models.layout import Layout
 from models.robot import RobotSpec
 from planners.plan import Plan
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 
 TRAJECTORIES = "trajectories.json"
 TRAJECTORIES_TO_FOLD = "trajectories_to_fold.json"

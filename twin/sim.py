@@ -33,7 +33,8 @@ import numpy as np
 from models.errors import TrajectoryError, UnknownRobotError
 from models.kinematics import forward
 from models.mjcf import TwinModel, collect_mujoco_warnings
-from planners.trajectory import Trajectory, atomic_write_text
+from models.files import atomic_write_text
+from models.trajectory import Trajectory
 
 
 # -- faults ---------------------------------------------------------------------------

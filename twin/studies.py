@@ -686,7 +686,7 @@ def _trial_row(point: dict, spec: RobotSpec, seed: int, index: int, check: bool)
                    n_steps=int(m["n_steps"]),
                    status="deadlocked" if m["n_deadlocked"] else "ok")
         if check:
-            from planners.trajectory import Trajectory
+            from models.trajectory import Trajectory
             from validation.checker2d import check_trajectory
 
             t1 = time.perf_counter()

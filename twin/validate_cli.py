@@ -91,7 +91,7 @@ def validate(
     out: Optional[Path] = typer.Option(None, help="Report file [default: RUN/validation.json]."),
 ) -> None:
     """Check a run against the 3D collision meshes (FCL); exit 4 on any 3D collision."""
-    from planners.trajectory import atomic_write_text
+    from models.files import atomic_write_text
     from twin.run_dir import TRAJECTORIES, TRAJECTORIES_TO_FOLD, load_run
     from validation.mesh3d import validate_trajectory
 

@@ -688,7 +688,7 @@ def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from planners.trajectory import atomic_write_text
+    from models.files import atomic_write_text
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -1,4 +1,4 @@
-"""Independent dense 2D collision check of a :class:`planners.trajectory.Trajectory`.
+"""Independent dense 2D collision check of a :class:`models.trajectory.Trajectory`.
 
 The collision model is the capsule model of Sayres 2021 (Eq. 3). Robot ``i`` with base
 ``b_i``, alpha ``a`` and beta ``b`` (degrees) has its beta collision body on the segment
@@ -17,7 +17,7 @@ a k-d tree, not with the planner's neighbour lists.
 Independence
 ------------
 This module imports only ``models.robot``, ``models.layout``, ``models.errors`` and the
-data type ``planners.trajectory``. Its segment distance is its own: the closest points
+data type ``models.trajectory``. Its segment distance is its own: the closest points
 of the two segments are found from the parameters ``(s, t)`` of the supporting lines,
 clamped to ``[0, 1]`` and re-projected (the formulation of Ericson, *Real-Time Collision
 Detection*, Sect. 5.1.9), written afresh here with 2D cross products for the line
@@ -114,7 +114,7 @@ from scipy.spatial import cKDTree
 from models.errors import SpecError, TrajectoryError, field_error
 from models.layout import Layout
 from models.robot import RobotSpec
-from planners.trajectory import AXES, Trajectory
+from models.trajectory import AXES, Trajectory
 
 __all__ = [
     "Collision",

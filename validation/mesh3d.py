@@ -1,4 +1,4 @@
-"""3D validation of a :class:`planners.trajectory.Trajectory` against the robot meshes (FCL).
+"""3D validation of a :class:`models.trajectory.Trajectory` against the robot meshes (FCL).
 
 FCL sees exactly the meshes MuJoCo collides: the convex collision pieces of every link
 of :class:`models.geometry.RobotGeometry` (``Link.collision``, the pieces
@@ -136,7 +136,7 @@ from models.errors import SpecError, TrajectoryError, field_error
 from models.geometry import LINKS, RobotGeometry, geometry_for_spec
 from models.layout import Layout
 from models.robot import RobotSpec
-from planners.trajectory import AXES, Trajectory
+from models.trajectory import AXES, Trajectory
 
 __all__ = [
     "RobotPair",

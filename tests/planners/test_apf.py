@@ -15,7 +15,7 @@ from planners.apf import (ApfSettings, apf_target_margin_mm, plan_apf,
                           plan_apf_reconfiguration, random_tip_configs, rep_dpsi_ds, rep_potential)
 from planners.plan import DEADLOCKED, OFFLINE, REACHED
 from planners.targets import random_targets
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 from validation.checker2d import check_trajectory
 
 DESI = load_spec("desi")

@@ -18,7 +18,7 @@ from models.robot import load_spec
 from planners.plan import Plan
 from planners.postprocess import postprocess
 from planners.timing import pl_kinematics
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random
 from validation.checker2d import check_trajectory
 
@@ -65,7 +65,7 @@ def assert_firmware_ready(traj: Trajectory, rep, plan: Plan, geom: ArrayGeometry
 def test_firmware_ready_and_collision_free(n_positions, buffer_mm, seed):
     geom = make_geom(n_positions, buffer_mm)
     _, plan = plan_random(geom, seed, step_deg=0.1)
-    traj, rep = postprocess(plan, geom)
+    traj, rep = postprocess(plan, geom, verifier=check_trajectory)
     assert_firmware_ready(traj, rep, plan, geom)
     assert rep.duration_s >= plan.n_steps * plan.step_s * 0.9
     assert rep.points_per_axis_median < 40
@@ -78,12 +78,12 @@ def test_toppra_backend_times_every_group_and_passes_the_checker(n_positions, bu
     the numba kernel, the same fold as the kernel's, firmware-ready and collision-free."""
     geom = make_geom(n_positions, buffer_mm)
     _, plan = plan_random(geom, seed, step_deg=0.1)
-    traj, rep = postprocess(plan, geom, backend="toppra")
+    traj, rep = postprocess(plan, geom, backend="toppra", verifier=check_trajectory)
     assert rep.backend == "toppra"
     assert rep.timing_fallbacks == 0 and "numba" not in rep.timing_solvers
     assert rep.timing_solvers["toppra"] == rep.n_groups - rep.timing_solvers.get("static", 0) > 0
     assert_firmware_ready(traj, rep, plan, geom)
-    _, ker = postprocess(plan, geom, backend="numba")
+    _, ker = postprocess(plan, geom, backend="numba", verifier=check_trajectory)
     assert ker.timing_solvers.get("numba") == rep.timing_solvers["toppra"]
     assert rep.duration_s == pytest.approx(ker.duration_s, rel=1e-4)
     assert rep.to_dict()["timing_fallbacks"] == 0
@@ -92,14 +92,14 @@ def test_toppra_backend_times_every_group_and_passes_the_checker(n_positions, bu
 def test_markov_plan_is_pre_simplified_and_stays_collision_free():
     geom = make_geom(91, 2.0)
     _, plan = plan_random(geom, 3, step_deg=0.1, algorithm="markov")
-    traj, rep = postprocess(plan, geom)
+    traj, rep = postprocess(plan, geom, verifier=check_trajectory)
     assert rep.presimplify_deg == 0.2 and rep.plan_breakpoints == plan.path_step.size
     assert rep.smoothed_breakpoints < 0.5 * rep.plan_breakpoints
     assert_firmware_ready(traj, rep, plan, geom)
-    _, raw = postprocess(plan, geom, presimplify_deg=0.0)
+    _, raw = postprocess(plan, geom, presimplify_deg=0.0, verifier=check_trajectory)
     assert raw.smoothed_breakpoints == raw.plan_breakpoints and raw.verified
     with pytest.raises(SpecError, match="presimplify_deg"):
-        postprocess(plan, geom, presimplify_deg=-0.1)
+        postprocess(plan, geom, presimplify_deg=-0.1, verifier=check_trajectory)
 
 
 def test_production_layout_with_fiducials_and_a_small_point_budget():
@@ -109,7 +109,7 @@ def test_production_layout_with_fiducials_and_a_small_point_budget():
     _, plan = plan_random(geom, 5, step_deg=0.2)
     # 16 points per axis: 12 needed all 8 verification rounds already with the old grid
     # (any change of the time law tipped it over); 16 needs 4
-    traj, rep = postprocess(plan, (spec, lay), 2.0, max_points=16)
+    traj, rep = postprocess(plan, (spec, lay), 2.0, max_points=16, verifier=check_trajectory)
     assert_firmware_ready(traj, rep, plan, geom, max_points=16)
     assert rep.max_tolerance_used_deg > rep.tolerance_deg       # the budget forced it
 
@@ -117,8 +117,8 @@ def test_production_layout_with_fiducials_and_a_small_point_budget():
 def test_report_serialises_and_is_deterministic():
     geom = make_geom(37, 2.0)
     _, plan = plan_random(geom, 7, step_deg=0.1)
-    a, ra = postprocess(plan, geom)
-    b, rb = postprocess(plan, geom)
+    a, ra = postprocess(plan, geom, verifier=check_trajectory)
+    b, rb = postprocess(plan, geom, verifier=check_trajectory)
     assert a.to_dict() == b.to_dict()
     d = json.loads(json.dumps(ra.to_dict()))
     for key in ("budget_mm", "duration_s", "max_speed_deg_s", "max_accel_deg_s2",
@@ -152,19 +152,19 @@ def test_chasing_robots_collide_when_timed_apart_and_not_when_grouped():
     raw = check_trajectory(Trajectory.from_plan(plan), geom.spec, geom.layout, 2.0)
     assert raw.ok and 0.3 < raw.min_clearance_mm < 1.0
     # timed apart (no interaction edges): A's faster, shorter-to-finish motion runs into B
-    apart, rep_apart = postprocess(plan, geom, interaction_mm=0.0, verify=False)
+    apart, rep_apart = postprocess(plan, geom, interaction_mm=0.0, verifier=None)
     assert rep_apart.n_groups == 2
     hit = check_trajectory(apart, geom.spec, geom.layout, 1.97)
     assert not hit.ok and hit.min_clearance_mm < -1.0
     with pytest.raises(PlanningError, match="collision"):
-        postprocess(plan, geom, interaction_mm=0.0, max_retries=0)
+        postprocess(plan, geom, interaction_mm=0.0, max_retries=0, verifier=check_trajectory)
     # grouped (default interaction distance 1 mm): one path parameter, clear at once
-    traj, rep = postprocess(plan, geom)
+    traj, rep = postprocess(plan, geom, verifier=check_trajectory)
     assert rep.n_groups == 1 and rep.largest_group == 2
     assert rep.merges == 0 and rep.retries == 0
     assert_firmware_ready(traj, rep, plan, geom)
     # and the repair loop reaches the same grouping from the split one
-    _, rep_fix = postprocess(plan, geom, interaction_mm=0.0)
+    _, rep_fix = postprocess(plan, geom, interaction_mm=0.0, verifier=check_trajectory)
     assert rep_fix.merges == 1 and rep_fix.largest_group == 2 and rep_fix.verified
 
 
@@ -181,10 +181,10 @@ def test_chasing_robots_collide_when_timed_apart_and_not_when_grouped():
 def test_bad_arguments_name_the_field(kwargs, field):
     plan, geom = chase_plan()
     with pytest.raises(SpecError, match=field):
-        postprocess(plan, geom, **kwargs)
+        postprocess(plan, geom, **kwargs, verifier=check_trajectory)
 
 
 def test_plan_must_match_the_layout():
     plan, _ = chase_plan()
     with pytest.raises(SpecError, match="robot_ids"):
-        postprocess(plan, make_geom(37, 2.0))
+        postprocess(plan, make_geom(37, 2.0), verifier=check_trajectory)

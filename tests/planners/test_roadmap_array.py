@@ -14,7 +14,7 @@ from planners.resolve_search import SearchResolveSettings
 from planners.roadmap_array import roadmap_pass, travel_priority
 from planners.solver import PlannerSettings, plan_reconfiguration
 from planners.stepwise import max_displacement
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random
 from validation.checker2d import check_trajectory
 

@@ -11,7 +11,7 @@ from models.layout import Layout
 from models.robot import load_spec
 from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED
 from planners.solver import PlannerSettings, deadlocked_groups, plan_reconfiguration
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random
 from validation.checker2d import check_trajectory
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from models.layout import Layout
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 
 #: The SDSS-V folded configuration (alpha, beta), deg.
 FOLD = (10.0, 170.0)

@@ -12,7 +12,7 @@ import pytest
 
 from models.layout import Layout
 from models.robot import load_spec
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 
 
 def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from rerun.chunk import RrdReader
 
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 from twin.record import RecordError, RecordSettings, record_run
 from twin.sim import simulate
 from tests.twin.builders import centre_robot as _centre, moves_trajectory as _moves

@@ -16,7 +16,7 @@ from models.errors import TrajectoryError, UnknownRobotError
 from models.layout import Layout
 from models.mjcf import build_model
 from models.robot import load_spec
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random
 from twin.sim import EncoderOffset, SimSettings, Simulator, Slow, Stuck, simulate
 from tests.twin.builders import centre_robot as _centre, moves_trajectory as _moves

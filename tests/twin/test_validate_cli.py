@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 from models.geometry import geometry_for_spec
 from models.layout import Layout
 from models.robot import load_spec
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 from twin.run_dir import LAYOUT, ROBOT, SUMMARY, TRAJECTORIES, TRAJECTORIES_TO_FOLD, spec_to_toml
 from twin.validate_cli import EXIT_BAD_INPUT, EXIT_COLLISION, VALIDATION_JSON, register
 

@@ -19,7 +19,7 @@ import pytest
 from models.errors import SpecError, TrajectoryError, UnknownRobotError
 from models.layout import Layout
 from models.robot import load_spec
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 from validation.checker2d import (CheckReport, Collision, _segment_distance, check_trajectory,
                                   coarse_grid, segment_distance_np, speed_bounds_mm_s)
 
@@ -250,7 +250,7 @@ def test_segment_distance_random_against_brute_force():
 def test_checker_imports_no_planner_algorithm_and_no_planner_geometry():
     code = ("import validation.checker2d, sys; "
             "print([m for m in sys.modules if m.startswith('planners') "
-            "and m != 'planners.trajectory' and m != 'planners']); "
+            "and m != 'models.trajectory' and m != 'planners']); "
             "print('models.geometry2d' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                          text=True, env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"},

@@ -21,7 +21,7 @@ from models.errors import SpecError, TrajectoryError, UnknownRobotError
 from models.geometry import LINKS, geometry_for_spec, load_geometry
 from models.layout import Layout
 from models.robot import load_spec
-from planners.trajectory import Trajectory
+from models.trajectory import Trajectory
 from validation.checker2d import check_trajectory, segment_distance_np
 from validation.mesh3d import (Check3DReport, LinkModels, RobotPair, _Exact, _poly_lb,
                                fit_capsule, link_pose, validate_trajectory)

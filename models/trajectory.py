@@ -11,14 +11,13 @@ Before the first breakpoint an axis holds its first angle, after the last its la
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from models.errors import TrajectoryError
+from models.files import atomic_write_text
 
 AXES = ("alpha", "beta")
 
@@ -203,18 +202,3 @@ def simplify_exact(t: np.ndarray, a: np.ndarray, tol: float = 1e-9) -> tuple[np.
     inner_keep = ~((np.abs(pred - a[1:-1]) <= tol) & (t2 > t0))
     keep = np.concatenate([[True], inner_keep, [True]])
     return t[keep], a[keep]
-
-
-def atomic_write_text(path: str | Path, text: str) -> None:
-    """Write text to a temp file in the same folder, then rename over ``path``."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from models.errors import TrajectoryError
-from planners.trajectory import Trajectory, simplify_exact
+from models.trajectory import Trajectory, simplify_exact
 from tests.planners.conftest import make_geom, plan_random
 
 
