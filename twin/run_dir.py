@@ -24,12 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
-from models.errors import RfpError
+from models.errors import RfpError, TrajectoryError
 from models.kinematics import forward
 from models.layout import Layout
 from models.robot import RobotSpec
 from planners.plan import Plan
-from models.trajectory import Trajectory
+from models.trajectory import AXES, Trajectory
 
 TRAJECTORIES = "trajectories.json"
 TRAJECTORIES_TO_FOLD = "trajectories_to_fold.json"
@@ -130,8 +130,32 @@ def load_run(run: str | Path, to_fold: bool = False) -> tuple[RobotSpec, Layout,
     spec = load_spec(run / ROBOT)
     layout = Layout.from_csv(run / LAYOUT, min_separation_mm=min(1.0, spec.pitch_mm / 4))
     traj = Trajectory.from_json(run / traj_file)
+    check_run_trajectory(traj, spec, layout, run / traj_file)
     summary = json.loads((run / SUMMARY).read_text()) if (run / SUMMARY).is_file() else {}
     return spec, layout, traj, summary
+
+
+def check_run_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, source: Path) -> None:
+    """Raise TrajectoryError unless ``traj`` moves exactly the layout's robots and every
+    breakpoint angle lies within the spec's joint limits (deg); the message names the
+    file, the robot, the axis, the value and the allowed range."""
+    ids = np.asarray(traj.robot_ids)
+    robots = layout.robot_ids
+    unknown = np.setdiff1d(ids, robots)
+    if unknown.size:
+        raise TrajectoryError(f"{source}: robot {int(unknown[0])} is not a robot of the run's layout; "
+                              f"allowed ids: {int(robots.min())}..{int(robots.max())}")
+    missing = np.setdiff1d(robots, ids)
+    if missing.size:
+        raise TrajectoryError(f"{source}: robot {int(missing[0])} of the layout has no trajectory "
+                              f"({missing.size} robot(s) missing)")
+    for ax, (lo, hi) in enumerate((spec.alpha_limits_deg, spec.beta_limits_deg)):
+        for i, angles in enumerate(traj.angles[ax]):
+            bad = np.flatnonzero((angles < lo) | (angles > hi))
+            if bad.size:
+                raise TrajectoryError(
+                    f"{source}: robot {int(ids[i])}: field '{AXES[ax]}' = {float(angles[bad[0]])!r} "
+                    f"deg at t = {float(traj.times[ax][i][bad[0]]):g} s; allowed: [{lo:g}, {hi:g}] deg")
 
 
 def _json_default(obj):

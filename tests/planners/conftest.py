@@ -1,15 +1,13 @@
-"""Shared builders for planner tests: small arrays built inline."""
+"""Shared builders for planner tests: small arrays built inline, plans through the pipeline."""
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from models.array import ArrayGeometry
 from models.layout import Layout
 from models.robot import load_spec
-from planners.solver import PlannerSettings, plan_reconfiguration
-from planners.stepwise import max_displacement
-from planners.targets import random_targets
+from twin.pipeline import PlanOptions
+from twin.pipeline import plan_random as _pipeline_plan_random
 
 
 def make_geom(n_positions: int = 37, buffer_mm: float = 2.0, preset: str = "sdss-v",
@@ -21,18 +19,17 @@ def make_geom(n_positions: int = 37, buffer_mm: float = 2.0, preset: str = "sdss
 
 
 def plan_random(geom: ArrayGeometry, seed: int, resolve: bool = True, resolver: str = "replace",
-                **settings):
+                **options):
     """Seeded random targets (clear by the planner's MD) and a plan; returns (targets, plan).
 
-    ``resolver`` is PlannerSettings.resolve: these tests (and the golden masters) were
-    written for target replacement, so that stays their default here.
+    The pipeline's own sequence (:func:`twin.pipeline.plan_random`). ``resolver`` is the
+    deadlock resolution: these tests (and the golden masters) were written for target
+    replacement, so that stays their default here; ``resolve=False`` stops after the
+    first run.
     """
-    s = PlannerSettings(resolve=resolver, **settings)
-    rng = np.random.default_rng(seed)
-    md = max_displacement(geom.spec.alpha_length_mm, geom.spec.beta_length_mm,
-                          float(geom.seg_end.max()), s.step_deg)
-    targets = random_targets(geom, rng, margin_mm=md)
-    return targets, plan_reconfiguration(geom, targets, s, rng, resolve=resolve)
+    opts = PlanOptions(resolve=resolver if resolve else "none", **options)
+    targets, plan, _ = _pipeline_plan_random(geom, seed, opts)
+    return targets, plan
 
 
 @pytest.fixture(scope="session")

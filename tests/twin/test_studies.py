@@ -198,7 +198,7 @@ def test_killed_study_resumes_with_every_trial_exactly_once(tmp_path):
     total = study.n_trials
     out = tmp_path / "out"
     results = out / RESULTS
-    proc = subprocess.Popen([sys.executable, "-m", "twin.study_cli", "run", str(path), "--out",
+    proc = subprocess.Popen([sys.executable, "-m", "twin.cli", "study", "run", str(path), "--out",
                              str(out), "--workers", "1", "--threads"], cwd=ROOT,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             start_new_session=True)
@@ -336,7 +336,7 @@ def test_report_puts_the_papers_fig10_beside_ours(tmp_path):
 # CLI
 # ---------------------------------------------------------------------------------------
 def _cli(*args, cwd=ROOT):
-    return subprocess.run([sys.executable, "-m", "twin.study_cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "twin.cli", "study", *args], capture_output=True,
                           text=True, cwd=cwd, timeout=120)
 
 

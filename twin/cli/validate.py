@@ -1,7 +1,6 @@
 """`rfp-twin validate` and `rfp-twin calibrate-buffer`: the 3D (FCL) checks on the CLI.
 
-``register(app)`` adds both commands to a typer app (``twin/cli.py`` calls it). The
-module also runs alone: ``python -m twin.validate_cli validate RUN_DIR``.
+``register(app)`` adds both commands to a typer app (``twin.cli`` calls it).
 
 Commands
 --------
@@ -12,50 +11,27 @@ calibrate-buffer --preset sdss-v --out DIR
     Calibrate the 2D collision buffer against the 3D meshes; writes
     ``DIR/buffer_calibration.md``, ``DIR/calibration.json`` and PNG figures.
 
-Exit codes (as twin/cli.py): 0 clear, 2 bad input (one-line message naming the field /
-file and what is allowed), 4 collision.
+Exit codes (:mod:`twin.cli.console`): 0 clear, 2 bad input (one-line message naming the
+field / file and what is allowed), 4 collision.
 """
 from __future__ import annotations
 
-import functools
 import json
-import sys
 import time
 from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.console import Console
-from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from models.errors import RfpError, SpecError, field_error
+from models.errors import SpecError, field_error
+from twin.cli.console import (EXIT_BAD_INPUT, EXIT_COLLISION, command_line, console, fail,
+                                  one_line_errors, progress_bar)
 
-__all__ = ["register", "validate", "calibrate_buffer", "main", "VALIDATION_JSON",
-           "EXIT_BAD_INPUT", "EXIT_COLLISION"]
+__all__ = ["register", "validate", "calibrate_buffer", "VALIDATION_JSON", "EXIT_BAD_INPUT",
+           "EXIT_COLLISION"]
 
 #: File written into the run folder by `validate`.
 VALIDATION_JSON = "validation.json"
-#: Exit codes (as twin/cli.py).
-EXIT_BAD_INPUT = 2
-EXIT_COLLISION = 4
-
-console = Console()
-err_console = Console(stderr=True)
-
-
-def _one_line_errors(fn):
-    """Turn rfp-twin errors into one line on stderr and exit code 2, however the
-    command is mounted."""
-    @functools.wraps(fn)
-    def wrapper(*args, **kwargs):
-        try:
-            return fn(*args, **kwargs)
-        except RfpError as exc:
-            err_console.print(f"[red]error:[/] {escape(str(exc))}", highlight=False,
-                              soft_wrap=True)
-            raise typer.Exit(EXIT_BAD_INPUT)
-    return wrapper
 
 
 def _geometry_for_run(geometry: Optional[str], spec, summary: dict):
@@ -74,11 +50,7 @@ def _geometry_for_run(geometry: Optional[str], spec, summary: dict):
     return geometry_for_spec(spec), f"defaults for {spec.source}"
 
 
-def _command_line() -> str:
-    return " ".join(["rfp-twin"] + sys.argv[1:])
-
-
-@_one_line_errors
+@one_line_errors
 def validate(
     run: Path = typer.Argument(..., help="Run folder written by `rfp-twin plan`."),
     geometry: Optional[str] = typer.Option(
@@ -97,8 +69,7 @@ def validate(
 
     spec, layout, traj, summary = load_run(run, to_fold=fold)
     geom, geom_label = _geometry_for_run(geometry, spec, summary)
-    with Progress(TextColumn("[bold]3D check[/] {task.description}"), BarColumn(),
-                  TimeElapsedColumn(), console=err_console, transient=True) as progress:
+    with progress_bar("3D check") as progress:
         task = progress.add_task(f"{traj.n_robots} robots", total=1.0)
 
         def on_progress(stage: str, done: int, total: int) -> None:
@@ -109,7 +80,7 @@ def validate(
 
         report = validate_trajectory(traj, spec, layout, geom, min_gap_mm=min_gap,
                                      resolution_s=resolution, progress=on_progress)
-    data = {"command": _command_line(), "run": str(run),
+    data = {"command": command_line(), "run": str(run),
             "trajectory": TRAJECTORIES_TO_FOLD if fold else TRAJECTORIES, **report.to_dict(),
             "geometry": geom_label}
     report.geometry = geom_label
@@ -118,12 +89,10 @@ def validate(
     console.print(report.table(), highlight=False)
     console.print(f"wrote {path}", highlight=False)
     if not report.ok:
-        err_console.print(f"[red]error:[/] {len(report.collisions)} 3D collision(s); see {path}",
-                          highlight=False)
-        raise typer.Exit(EXIT_COLLISION)
+        raise fail(f"{len(report.collisions)} 3D collision(s); see {path}", EXIT_COLLISION)
 
 
-@_one_line_errors
+@one_line_errors
 def calibrate_buffer(
     preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
     out: Path = typer.Option(..., help="Folder for the report and figures."),
@@ -156,7 +125,7 @@ def calibrate_buffer(
     geom = load_geometry(geometry if geometry is not None else preset, spec)
     lay = None
     if layout is not None:
-        from twin.cli import resolve_layout
+        from twin.layouts import resolve_layout
 
         lay = resolve_layout(layout, spec.pitch_mm)
     errs = (spec.angular_error_deg[0] if alpha_error is None else alpha_error,
@@ -165,9 +134,7 @@ def calibrate_buffer(
         raise field_error(SpecError, "--out", str(out), "a folder (new or existing)")
     stages = {"uniform samples": (0.0, 0.1), "boundary": (0.1, 0.2), "monte carlo": (0.2, 0.95)}
     clock = time.perf_counter()
-    with Progress(TextColumn("[bold]calibrating[/] {task.description}"), BarColumn(),
-                  TextColumn("{task.percentage:>3.0f}%"), TimeElapsedColumn(),
-                  console=err_console, transient=True) as progress:
+    with progress_bar("calibrating") as progress:
         task = progress.add_task(spec.name, total=1.0)
 
         def on_progress(stage: str, frac: float) -> None:
@@ -179,7 +146,7 @@ def calibrate_buffer(
                               probability=probability, angular_error_deg=errs, seed=seed,
                               progress=on_progress)
         progress.update(task, completed=0.97, description=f"{spec.name}: report")
-        paths = write_report(cal, out, command=_command_line())
+        paths = write_report(cal, out, command=command_line())
     console.print(cal.table(), highlight=False)
     console.print(f"report: {paths['markdown']} ({time.perf_counter() - clock:.1f} s)",
                   highlight=False)
@@ -191,18 +158,3 @@ def register(app: typer.Typer) -> None:
     """Add ``validate`` and ``calibrate-buffer`` to a typer app."""
     app.command("validate")(validate)
     app.command("calibrate-buffer")(calibrate_buffer)
-
-
-validate_app = typer.Typer(add_completion=False, no_args_is_help=True,
-                           pretty_exceptions_enable=False,
-                           help="3D validation (FCL) and collision-buffer calibration.")
-register(validate_app)
-
-
-def main() -> None:
-    """Run alone (``python -m twin.validate_cli``)."""
-    validate_app()
-
-
-if __name__ == "__main__":
-    main()

@@ -1,6 +1,6 @@
-"""`rfp-twin validate` and `rfp-twin calibrate-buffer` (twin/validate_cli.py).
+"""`rfp-twin validate` and `rfp-twin calibrate-buffer` (twin/cli/validate.py).
 
-The commands are mounted on a fresh typer app with ``register`` (as twin/cli.py does)
+The commands are mounted on a fresh typer app with ``register`` (as twin.cli does)
 and run with typer's CliRunner; run folders are built by hand (spec, layout,
 trajectory), so a colliding motion can be checked too.
 """
@@ -19,7 +19,7 @@ from models.layout import Layout
 from models.robot import load_spec
 from models.trajectory import Trajectory
 from twin.run_dir import LAYOUT, ROBOT, SUMMARY, TRAJECTORIES, TRAJECTORIES_TO_FOLD, spec_to_toml
-from twin.validate_cli import EXIT_BAD_INPUT, EXIT_COLLISION, VALIDATION_JSON, register
+from twin.cli.validate import EXIT_BAD_INPUT, EXIT_COLLISION, VALIDATION_JSON, register
 
 SPEC = load_spec("sdss-v")
 
@@ -131,3 +131,13 @@ def test_calibrate_buffer_writes_report_and_figures(app, tmp_path):
     for name in ("scatter_2d_3d.png", "wasted_space.png", "mc_buffer.png"):
         assert (out / name).stat().st_size > 5000
     assert f"{data['safe_buffer_mm']:.4f}" in r.output
+
+
+def test_validate_refuses_angles_beyond_the_joint_limits(app, tmp_path):
+    """A trajectory that puts beta at 725 deg is bad input: one line, exit 2, no report."""
+    run = make_run(tmp_path / "wild", 725.0)
+    r = invoke(app, "validate", run)
+    assert r.exit_code == EXIT_BAD_INPUT, r.output
+    assert "robot 0: field 'beta' = 725.0 deg" in r.output and "allowed: [" in r.output
+    assert len(r.output.strip().splitlines()) == 1
+    assert not (run / VALIDATION_JSON).exists()

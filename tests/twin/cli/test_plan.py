@@ -1,10 +1,8 @@
-"""`rfp-twin plan` end to end, as a user runs it (subprocess, exit codes, files)."""
+"""`rfp-twin plan` (twin/cli/plan.py) end to end, as a user runs it (subprocess, exit codes, files)."""
 from __future__ import annotations
 
 import csv
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,11 +11,7 @@ import pytest
 from models.layout import Layout
 from models.robot import load_spec
 from models.trajectory import Trajectory
-
-
-def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "twin.cli", *args], capture_output=True,
-                          text=True, cwd=cwd, timeout=300)
+from tests.twin.cli.runner import run
 
 
 def test_plan_writes_a_complete_checked_run(tmp_path):
@@ -100,6 +94,10 @@ def test_bad_layout_and_targets_files(tmp_path):
     tg.write_text("robot_id,alpha_deg,beta_deg\n" + "".join(f"{i},10,170\n" for i in range(6)))
     r = run("plan", "--layout", "hex:7", "--targets", str(tg), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "no target row" in r.stderr
+    tg.write_text("robot_id,alpha_deg,beta_deg\n" + "".join(f"{i},10,170\n" for i in range(7))
+                  + "3,20,150\n")
+    r = run("plan", "--layout", "hex:7", "--targets", str(tg), "--out", str(tmp_path / "o"))
+    assert r.returncode == 2 and "t.csv:9: robot 3 has a second target row (first on line 5)" in r.stderr
     tg.write_text("robot_id,x_mm,y_mm\n" + "".join(f"{i},0,0\n" for i in range(7)))
     r = run("plan", "--layout", "hex:7", "--targets", str(tg), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "unreachable" in r.stderr and "allowed" in r.stderr
@@ -148,62 +146,6 @@ def test_malformed_robot_toml_and_nan_targets(tmp_path):
     r = run("plan", "--layout", "hex:7", "--targets", str(tg), "--out", str(tmp_path / "o"))
     assert r.returncode == 2 and "robot 6" in r.stderr and "NaN" in r.stderr
     assert not (tmp_path / "o").exists()
-
-
-def test_simulate_and_model_export(tmp_path):
-    out = tmp_path / "run"
-    assert run("plan", "--layout", "hex:19", "--seed", "1", "--out", str(out)).returncode == 0
-    r = run("simulate", str(out))
-    assert r.returncode == 0, r.stderr
-    sim = json.loads((out / "sim.json").read_text())
-    assert sim["contact_pairs"] == [] and sim["not_reached"] == []
-    r = run("simulate", str(out), "--stuck", "3:0.5")
-    assert r.returncode == 0 and "stuck" in r.stdout
-    assert json.loads((out / "sim.json").read_text())["not_reached"] == [3]
-    r = run("simulate", str(out), "--slow", "x")
-    assert r.returncode == 2 and "ID:FACTOR" in r.stderr
-    r = run("simulate", str(tmp_path / "nope"))
-    assert r.returncode == 2 and "run folder not found" in r.stderr
-    r = run("model", "export", "--out", str(tmp_path / "model"), "--layout", "hex:7")
-    assert r.returncode == 0, r.stderr
-    import mujoco
-    m = mujoco.MjModel.from_xml_path(str(tmp_path / "model" / "rfp-twin.xml"))
-    assert m.njnt == 2 * 7
-
-
-def test_load_run_reads_a_run_folder_both_ways(tmp_path):
-    from models.errors import RfpError
-    from twin.run_dir import LAYOUT, load_run
-
-    out = tmp_path / "run"
-    assert run("plan", "--layout", "hex:7", "--seed", "2", "--out", str(out)).returncode == 0
-    spec, lay, traj, summary = load_run(out)
-    assert lay.n_robots == 7 and summary["n_robots"] == 7 and spec.buffer_mm == 2.5
-    _, _, back, _ = load_run(out, to_fold=True)
-    np.testing.assert_allclose(back.end(), traj.start())
-    (out / LAYOUT).unlink()
-    with pytest.raises(RfpError, match="layout.csv is missing"):
-        load_run(out)
-    with pytest.raises(RfpError, match="run folder not found"):
-        load_run(tmp_path / "nothing")
-
-
-def test_render_and_record_commands(tmp_path):
-    import imageio.v3 as iio
-
-    out = tmp_path / "run"
-    assert run("plan", "--layout", "hex:7", "--seed", "2", "--out", str(out)).returncode == 0
-    mp4 = tmp_path / "fold.mp4"
-    r = run("render", str(out), "--out", str(mp4), "--width", "320", "--height", "240",
-            "--fps", "10", "--speedup", "4")
-    assert r.returncode == 0, r.stderr
-    frames = iio.imread(mp4)
-    assert frames.shape[1:] == (240, 320, 3) and frames.std() > 5.0
-    r = run("record", str(out), "--out", str(tmp_path / "run.rrd"))
-    assert r.returncode == 0, r.stderr
-    assert (tmp_path / "run.rrd").stat().st_size > 10_000
-    r = run("render", str(out), "--camera", "sideways", "--out", str(tmp_path / "x.mp4"))
-    assert r.returncode == 2 and "camera" in r.stderr and not (tmp_path / "x.mp4").exists()
 
 
 def test_plan_writes_firmware_ready_trajectories_by_default(tmp_path):

@@ -1,7 +1,6 @@
 """`rfp-twin study ...`: run design studies on Dask and report them.
 
-A typer sub-app; ``twin/cli.py`` mounts it as ``rfp-twin study``. It also runs alone:
-``python -m twin.study_cli run sim1-small``.
+A typer sub-app; :mod:`twin.cli` mounts it as ``rfp-twin study``.
 
 Commands
 --------
@@ -11,16 +10,14 @@ list          the shipped studies
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.console import Console
-from rich.markup import escape
 from rich.table import Table
 
-from models.errors import RfpError
+from twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, EXIT_INTERRUPTED, console,
+                                  err_console, fail, one_line_errors)
 from twin.studies import (default_out_dir, list_studies, load_study, machine_workers,
                           run_study)
 
@@ -28,18 +25,10 @@ study_app = typer.Typer(add_completion=False, no_args_is_help=True,
                         pretty_exceptions_enable=False,
                         help="Design studies: thousands of simulated reconfigurations on Dask, "
                              "stored as Parquet, reported as figures.")
-console = Console()
-err_console = Console(stderr=True)
-
-#: Exit codes (as twin/cli.py): 2 bad input; 3 the run stopped before every trial was done;
-#: 4 the 2D checker found collisions in some trial; 130 interrupted.
-EXIT_BAD_INPUT = 2
-EXIT_INCOMPLETE = 3
-EXIT_COLLISION = 4
-EXIT_INTERRUPTED = 130
 
 
 @study_app.command("run")
+@one_line_errors
 def run(
     file: str = typer.Argument(..., help="Study TOML file, or a shipped study name "
                                "(see `rfp-twin study list`)."),
@@ -93,9 +82,8 @@ def run(
     if report:
         _report(out_dir, None, False)
     if s.n_collisions:
-        err_console.print(f"[red]error:[/] the 2D checker found collisions in {s.n_collisions} "
-                          "trial(s); see the 'collisions' column", highlight=False)
-        raise typer.Exit(EXIT_COLLISION)
+        raise fail(f"the 2D checker found collisions in {s.n_collisions} trial(s); see the "
+                   "'collisions' column", EXIT_COLLISION)
     if not s.complete:
         err_console.print(f"{s.n_total - s.n_before - s.n_run} trial(s) left; run again to go on",
                           highlight=False)
@@ -116,6 +104,7 @@ def _report(study_dir: Path, out: Optional[Path], all_points: bool) -> None:
 
 
 @study_app.command("report")
+@one_line_errors
 def report(
     study_dir: Path = typer.Argument(..., help="Study folder written by `rfp-twin study run`."),
     out: Optional[Path] = typer.Option(None, help="Report folder (default: DIR/report)."),
@@ -127,6 +116,7 @@ def report(
 
 
 @study_app.command("list")
+@one_line_errors
 def list_cmd() -> None:
     """List the studies shipped with rfp-twin."""
     t = Table(title="shipped studies (twin/study_files/*.toml)")
@@ -136,16 +126,3 @@ def list_cmd() -> None:
         s = load_study(name)
         t.add_row(name, str(len(s.points)), str(s.trials), str(s.n_trials), s.description)
     console.print(t)
-
-
-def main() -> None:
-    """Run the sub-app alone (``python -m twin.study_cli``) with one-line errors."""
-    try:
-        study_app()
-    except RfpError as exc:
-        err_console.print(f"[red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
-        sys.exit(EXIT_BAD_INPUT)
-
-
-if __name__ == "__main__":
-    main()

@@ -1,0 +1,12 @@
+"""Run ``rfp-twin`` as a user does: a subprocess, its exit code, stdout and stderr."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+
+def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    """``rfp-twin ARGS`` (as ``python -m twin.cli``); text output, 300 s limit."""
+    return subprocess.run([sys.executable, "-m", "twin.cli", *args], capture_output=True,
+                          text=True, cwd=cwd, timeout=300)

@@ -1,0 +1,4 @@
+"""``python -m twin.cli ARGS`` runs ``rfp-twin ARGS``."""
+from twin.cli import main
+
+main()

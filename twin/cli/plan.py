@@ -1,0 +1,173 @@
+"""``rfp-twin plan``: parse the options, run the pipeline, print the summary.
+
+All the work is :class:`twin.pipeline.Reconfiguration`; this module only turns options
+into its inputs and its :class:`twin.outcome.Outcome` into a run folder and a table.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.table import Table
+
+from models.errors import LayoutError, TargetError
+from twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, console, fail,
+                                  one_line_errors, progress_bar)
+
+
+def parse_ids(text: str, option: str) -> tuple[int, ...]:
+    """``"1,2,3"`` -> (1, 2, 3); the error names the option."""
+    try:
+        return tuple(int(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise LayoutError(f"{option} {text!r}; allowed: comma-separated integer ids") from None
+
+
+def parse_offline(items: list[str], fold_deg: tuple[float, float]) -> dict[int, tuple[float, float]]:
+    """``ID`` (parked folded) or ``ID:ALPHA:BETA`` -> {id: (alpha, beta) deg}."""
+    out: dict[int, tuple[float, float]] = {}
+    for item in items:
+        for part in filter(None, item.split(",")):
+            bits = part.split(":")
+            try:
+                if len(bits) not in (1, 3):
+                    raise ValueError
+                rid = int(bits[0])
+                ang = (float(bits[1]), float(bits[2])) if len(bits) == 3 else tuple(fold_deg)
+            except ValueError:
+                raise TargetError(f"--offline {part!r}; allowed: ID or ID:ALPHA:BETA") from None
+            out[rid] = ang
+    return out
+
+
+@one_line_errors
+def plan(
+    preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
+    layout: Optional[str] = typer.Option(None, help="sdss-v-fps | sdss-v-547 | hex:N | CSV file "
+                                         "[default: sdss-v-fps for SDSS-V presets, hex:547 otherwise]"),
+    fiducials: str = typer.Option("", help="Comma-separated position ids that are fiducials "
+                                  "(generated grids only)."),
+    buffer: Optional[float] = typer.Option(None, help="Collision buffer sigma_cb, mm [default: preset]."),
+    step: float = typer.Option(0.1, help="Angular step, deg."),
+    algorithm: str = typer.Option("greedy", help="greedy | markov (stepwise, Sayres 2021) | roadmap "
+                                  "(Sabater 2018 prioritized state-time planner on every robot; "
+                                  "slow: minutes on 500 robots) | apf (Makarem 2014 navigation "
+                                  "function) | capf (Macktoobian 2019)"),
+    greed: float = typer.Option(0.9, help="Markov greed, [0, 1]."),
+    phobia: float = typer.Option(0.3, help="Markov phobia, [0, 1]."),
+    seed: int = typer.Option(0, help="Seed of targets, Markov moves and replacements."),
+    offline: list[str] = typer.Option([], help="Offline robot: ID (parked folded) or ID:ALPHA:BETA; "
+                                      "repeat or comma-separate."),
+    targets: Optional[Path] = typer.Option(None, help="Targets CSV (robot_id + alpha_deg,beta_deg or "
+                                           "x_mm,y_mm) [default: seeded random]."),
+    direction: str = typer.Option("reverse", help="reverse (targets->fold, reversed) | forward"),
+    resolve: str = typer.Option("search", help="Deadlocks left by greedy/markov/roadmap: search "
+                                "(re-plan each deadlocked group by state-time search, keeping its "
+                                "targets; replace a target only where that fails) | replace (new "
+                                "target for one robot per group, Sayres 2021) | none."),
+    apf_gain: float = typer.Option(1.0, help="apf/capf: field gain u = -gain J^T grad psi, 1/s."),
+    lambda3: float = typer.Option(0.03, help="capf: cooperative weight (Macktoobian Eq. 5)."),
+    max_steps: Optional[int] = typer.Option(None, help="Step limit [default: 1000 deg / step]."),
+    out: Path = typer.Option(Path("out/plan"), help="Output folder (must not exist unless --force)."),
+    force: bool = typer.Option(False, help="Replace an existing output folder."),
+    raw: bool = typer.Option(False, help="Write the stepwise paths (constant speed, infinite "
+                             "acceleration) instead of firmware-ready trajectories."),
+    budget: float = typer.Option(0.03, help="Buffer share of smoothing + simplification, mm "
+                                 "(Eq. 12); trajectories are verified at buffer - budget."),
+    max_points: int = typer.Option(1024, help="Most (angle, time) points per axis (firmware)."),
+    timing_backend: str = typer.Option("toppra", help="Time-optimal parametrisation: toppra (the "
+                                       "library) | numba (our kernel of the same algorithm, "
+                                       "same trajectories, ~3-5x faster)."),
+) -> None:
+    """Plan a collision-free reconfiguration fold -> targets and write a run folder.
+
+    By default the stepwise plan is smoothed, time-parametrised under the spec's speed and
+    acceleration limits (interacting robots share one path parameter), simplified to at most
+    --max-points per axis and verified again at buffer - budget."""
+    from models.robot import load_spec
+    from twin.layouts import default_layout_name
+    from twin.pipeline import PlanOptions, Reconfiguration
+
+    t_start = time.perf_counter()
+    options = PlanOptions(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,
+                          direction=direction, resolve=resolve, max_steps=max_steps,
+                          apf_gain=apf_gain, lambda3=lambda3, raw=raw, budget_mm=budget,
+                          max_points=max_points, timing_backend=timing_backend)
+    spec = load_spec(preset)
+    layout = layout or default_layout_name(spec)
+    rc = Reconfiguration.from_names(spec, layout, buffer_mm=buffer,
+                                    fiducial_ids=parse_ids(fiducials, "--fiducials"),
+                                    options=options, offline=parse_offline(offline, spec.fold_deg))
+    tg = rc.read_targets(targets) if targets is not None else None
+    n, rounds = rc.geom.n_robots, options.max_rounds + 1
+    with progress_bar("planning", "{task.completed}/{task.total}") as progress:
+        task = progress.add_task(f"{n} robots, {algorithm}", total=rounds if options.stepwise else None)
+
+        def on_round(rnd: int, n_stuck: int) -> None:
+            progress.update(task, completed=rnd + 1,
+                            description=f"{n} robots, {algorithm}: {n_stuck} deadlocked")
+
+        def on_stage(name: str) -> None:
+            if name in ("post-processing", "checking"):
+                progress.update(task, completed=rounds, total=rounds,
+                                description=f"{n} robots: {name}")
+
+        outcome = rc.run(seed=seed, targets=tg, on_round=on_round, on_stage=on_stage)
+    summary = outcome.summary(layout=layout)
+    summary["wall_time_s"] = time.perf_counter() - t_start
+    check = outcome.check
+    if not check.ok:
+        raise fail(f"the plan fails the 2D check: {len(check.collisions)} collision(s), min "
+                   f"clearance {check.min_clearance_mm:.4f} mm; nothing written", EXIT_COLLISION)
+    outcome.write(out, summary=summary, overwrite=force)
+    print_summary(summary, out)
+    if outcome.n_deadlocked:
+        raise fail(f"{outcome.n_deadlocked} robot(s) still deadlocked after "
+                   f"{summary['metrics']['rounds']} round(s); see {out}/targets.csv", EXIT_INCOMPLETE)
+
+
+def print_summary(summary: dict, out: Path) -> None:
+    """The run's figures as a table on stdout."""
+    m = summary["metrics"]
+    c = summary["check2d"]
+    t = Table(title=f"rfp-twin plan -> {out}", show_header=True)
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    rows = [
+        ("robots (offline)", f"{summary['n_robots']} ({m['n_offline']})"),
+        ("fiducials", str(summary["n_fiducials"])),
+        ("algorithm / direction", f"{summary['algorithm']} / {summary['direction']}"),
+        ("buffer / step", f"{summary['buffer_mm']:.3f} mm / " + (
+            f"{summary['step_deg']} deg" if summary["step_deg"] is not None
+            else f"Euler {summary['field']['dt_s']} s")),
+        ("efficiency (Eq. 11)", f"{m['efficiency']:.4f}"),
+        ("convergence (1st run)", f"{m['convergence']:.4f}"),
+        ("targets replaced", str(m["n_replaced"])),
+        ("deadlocked", str(m["n_deadlocked"])),
+        *([("kept by search", f"{m['n_search_robots']} robots, {m['n_search_groups']} groups, "
+                              f"{m['search_s']:.1f} s ({m['n_search_failed_groups']} "
+                              f"failed)"),
+           ("kept by continuation", f"{m.get('n_continued_robots', 0)} robots, "
+                                    f"{m.get('n_continued_groups', 0)} groups")]
+          if summary.get("resolve") == "search" else []),
+        ("fold time (stepwise)", f"{m['fold_time_s']:.2f} s"),
+        ("trajectory duration", f"{summary['duration_s']:.2f} s ({summary['trajectories']})"),
+        ("tau_pg / tau_sr", f"{m['tau_pg_s']:.3f} s / {m['tau_sr_s']:.3f} s"),
+        ("points per axis (median / max)",
+         f"{summary['points_per_axis_median']:.0f} / {summary['points_per_axis_max']}"),
+        ("2D check", f"{'clear' if c['ok'] else 'COLLISION'} at {c['buffer_mm']:.3f} mm, min "
+                     f"clearance {c['min_clearance_mm']:.4f} mm"),
+    ]
+    p = summary.get("postprocess")
+    if p:
+        rows.insert(-1, ("max |v| / |a| (alpha, beta)",
+                         f"{max(p['max_speed_deg_s']):.2f} deg/s / {max(p['max_accel_deg_s2']):.1f} deg/s^2"))
+        solvers = ", ".join(f"{k} {v}" for k, v in sorted(p.get("timing_solvers", {}).items()))
+        rows.insert(-1, ("post-processing", f"{p['stage_seconds'].get('total', 0.0):.2f} s, "
+                                            f"{p['n_groups']} groups (largest {p['largest_group']})"))
+        rows.insert(-1, ("groups timed by", solvers or "-"))
+    for k, v in rows:
+        t.add_row(k, v)
+    console.print(t)

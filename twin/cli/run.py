@@ -1,0 +1,138 @@
+"""``rfp-twin simulate | render | record | model export``: a run folder in the MuJoCo twin.
+
+Each command reads a run folder written by ``rfp-twin plan`` (:func:`twin.run_dir.load_run`)
+and builds the MuJoCo model of its spec and layout; heavy imports (mujoco, rerun) happen
+inside the commands so that ``rfp-twin --help`` stays fast.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from models.errors import RfpError
+from twin.cli.console import (EXIT_COLLISION, console, err_console, fail, one_line_errors,
+                                  progress_bar)
+from twin.cli.plan import parse_ids
+
+model_app = typer.Typer(no_args_is_help=True, help="The MuJoCo model of an array.")
+
+#: Fault options: (option, fault class name in twin.sim, number of fields, form).
+_FAULTS = (("--stuck", "Stuck", 2, "ID:TIME_S"), ("--slow", "Slow", 2, "ID:FACTOR"),
+           ("--encoder-offset", "EncoderOffset", 3, "ID:ALPHA_DEG:BETA_DEG"))
+
+
+def parse_faults(stuck: list[str], slow: list[str], offset: list[str]) -> list:
+    """Fault objects of :mod:`twin.sim` from the ``--stuck/--slow/--encoder-offset`` items."""
+    import twin.sim as sim
+
+    faults = []
+    for (opt, cls_name, n_args, form), items in zip(_FAULTS, (stuck, slow, offset)):
+        for item in items:
+            bits = item.split(":")
+            try:
+                if len(bits) != n_args:
+                    raise ValueError
+                faults.append(getattr(sim, cls_name)(int(bits[0]), *(float(b) for b in bits[1:])))
+            except ValueError:
+                raise RfpError(f"{opt} {item!r}; allowed: {form}") from None
+    return faults
+
+
+@model_app.command("export")
+@one_line_errors
+def model_export(
+    out: Path = typer.Option(..., help="Folder for rfp-twin.xml and meshes/."),
+    preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
+    layout: Optional[str] = typer.Option(None, help="sdss-v-fps | sdss-v-547 | hex:N | CSV file."),
+    fiducials: str = typer.Option("", help="Comma-separated fiducial ids (generated grids)."),
+    timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
+) -> None:
+    """Write the MuJoCo model (MJCF + STL meshes); MuJoCo's own viewer opens it."""
+    from models.mjcf import ModelOptions, export_model
+    from models.robot import load_spec
+    from twin.layouts import default_layout_name, resolve_layout
+
+    spec = load_spec(preset)
+    lay = resolve_layout(layout or default_layout_name(spec), spec.pitch_mm,
+                         parse_ids(fiducials, "--fiducials"))
+    path = export_model(spec, lay, out, options=ModelOptions(timestep_s=timestep))
+    console.print(f"wrote {path} ({lay.n_robots} robots, {lay.n_fiducials} fiducials)")
+
+
+@one_line_errors
+def simulate(
+    run: Path = typer.Argument(..., help="Run folder written by `rfp-twin plan`."),
+    stuck: list[str] = typer.Option([], help="Fault: robot stuck from a time, ID:TIME_S."),
+    slow: list[str] = typer.Option([], help="Fault: robot running slow, ID:FACTOR."),
+    encoder_offset: list[str] = typer.Option([], help="Fault: encoder offset, ID:ALPHA_DEG:BETA_DEG."),
+    timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
+) -> None:
+    """Run the plan in the MuJoCo twin; writes RUN/sim.json; exit 4 on any robot contact."""
+    from models.mjcf import ModelOptions, build_model
+    from twin.run_dir import load_run
+    from twin.sim import simulate as run_sim
+
+    spec, lay, traj, _ = load_run(run)
+    faults = parse_faults(stuck, slow, encoder_offset)
+    twin = build_model(spec, lay, options=ModelOptions(timestep_s=timestep))
+    with progress_bar("simulating") as progress:
+        task = progress.add_task("", total=traj.duration + 0.5)
+        report = run_sim(twin, traj, faults,
+                         callback=lambda t, m, d: progress.update(task, completed=t), record=False)
+    report.to_json(Path(run) / "sim.json")
+    console.print(report.table())
+    if report.collided:
+        raise fail(f"{report.robot_contacts} robot-robot contact(s) in simulation; see "
+                   f"{run}/sim.json", EXIT_COLLISION)
+
+
+@one_line_errors
+def render(
+    run: Path = typer.Argument(..., help="Run folder written by `rfp-twin plan`."),
+    out: Path = typer.Option(Path("fold.mp4"), help="MP4 file to write."),
+    camera: Optional[str] = typer.Option(None, help="top | oblique | closeup [default: top, "
+                                         "closeup with --robot]."),
+    robot: Optional[int] = typer.Option(None, help="Robot id for the close-up camera."),
+    width: int = typer.Option(1280, help="Frame width, px."),
+    height: int = typer.Option(720, help="Frame height, px."),
+    fps: float = typer.Option(30.0, help="Frames per second of the video."),
+    speedup: float = typer.Option(1.0, help="Simulated seconds per video second."),
+    fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
+    full_quality: bool = typer.Option(False, help="Shadows, reflections, MSAA (slow on a CPU)."),
+) -> None:
+    """Simulate a run and render it offscreen to MP4 (robots coloured by state)."""
+    from twin.render import RenderSettings, render_run  # first: picks MUJOCO_GL before mujoco
+
+    from models.mjcf import build_model
+    from twin.run_dir import load_run
+
+    spec, lay, traj, _ = load_run(run, to_fold=fold)
+    settings = RenderSettings(width=width, height=height, fps=fps, speedup=speedup,
+                              camera=camera or ("closeup" if robot is not None else "top"),
+                              robot_id=robot, lean=not full_quality)
+    with progress_bar("rendering", "{task.completed}/{task.total} frames") as progress:
+        task = progress.add_task("", total=None)
+        report = render_run(build_model(spec, lay), traj, out, settings,
+                            progress=lambda i, n: progress.update(task, completed=i, total=n))
+    console.print(f"wrote {out}: {report.frames} frames, {report.fps_rendered:.1f} frames/s "
+                  f"rendered, {report.fps_achieved:.1f} frames/s with encoding ({report.backend})")
+
+
+@one_line_errors
+def record(
+    run: Path = typer.Argument(..., help="Run folder written by `rfp-twin plan`."),
+    out: Path = typer.Option(Path("run.rrd"), help=".rrd file to write."),
+    fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
+    dt: Optional[float] = typer.Option(None, help="Seconds between logged poses [default 0.02]."),
+) -> None:
+    """Simulate a run and write a rerun recording: arm poses, fiber traces, contacts."""
+    from models.mjcf import build_model
+    from twin.record import RecordSettings, record_run
+    from twin.run_dir import load_run
+
+    spec, lay, traj, _ = load_run(run, to_fold=fold)
+    with err_console.status("simulating and recording"):
+        path = record_run(build_model(spec, lay), traj, out, settings=RecordSettings(dt_s=dt))
+    console.print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB); open it with `rerun {path}`")

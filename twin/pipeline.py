@@ -1,0 +1,284 @@
+"""The one reconfiguration pipeline: array + targets -> plan -> post-process -> 2D check.
+
+:class:`Reconfiguration` is the object a user drives end to end, the role kaiju's
+``RobotGrid`` plays for SDSS-V: it holds the array (robot spec, layout, collision
+buffer, offline robots) and the planning options; :meth:`Reconfiguration.run` draws or
+takes targets, plans (stepwise planners with deadlock resolution, or a potential
+field), post-processes into firmware-ready trajectories (smoothing, time-optimal
+timing, simplification, re-verification by the independent 2D checker that this
+module hands to the planners) and returns a :class:`~twin.outcome.Outcome` that writes
+the run folder. The CLI's ``plan``, the studies, the tests' helpers and the benchmarks
+all call it, so the chain is written once.
+
+Units: mm, deg, s. Configurations are ``(n_robots, 2)`` arrays of (alpha, beta) in deg,
+rows in layout order.
+
+Example::
+
+    rc = Reconfiguration.from_names("sdss-v", buffer_mm=2.0)
+    outcome = rc.run(seed=1)
+    outcome.write("out/run1")
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from models.array import ArrayGeometry
+from models.errors import PlanningError, RfpError
+from models.layout import Layout
+from models.robot import RobotSpec, load_spec
+from models.trajectory import Trajectory
+from planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
+from planners.solver import ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings, plan_reconfiguration
+from planners.stepwise import max_displacement
+from planners.targets import random_targets
+from planners.timing import BACKENDS, DEFAULT_BACKEND
+from twin.layouts import default_layout_name, resolve_layout
+from twin.outcome import Outcome
+from validation.checker2d import check_trajectory
+
+#: Planners that integrate a potential field (Makarem 2014 APF, Macktoobian 2019 CAPF).
+FIELD_ALGORITHMS = ("apf", "capf")
+#: Every planner the pipeline runs.
+ALL_ALGORITHMS = ALGORITHMS + FIELD_ALGORITHMS
+#: Deadlock resolution: the planners' resolvers, or none (stop after the first run).
+RESOLUTIONS = RESOLVERS + ("none",)
+#: Extra clearance (mm) beyond a field's barrier that random targets keep.
+FIELD_TARGET_SLACK_MM = 0.5
+
+__all__ = ["ALL_ALGORITHMS", "FIELD_ALGORITHMS", "RESOLUTIONS", "PlanOptions", "Reconfiguration",
+           "Outcome", "check_trajectory"]
+
+
+def _choice(name: str, value: str, allowed: tuple[str, ...]) -> None:
+    if value not in allowed:
+        raise RfpError(f"{name} {value!r}; allowed: {', '.join(allowed)}")
+
+
+@dataclass(frozen=True)
+class PlanOptions:
+    """How to plan and what to deliver (every option of ``rfp-twin plan``).
+
+    algorithm : greedy | markov | roadmap (stepwise, with deadlock resolution) | apf | capf
+    step_deg : angular step of the stepwise planners, deg
+    greed, phobia : Markov parameters in [0, 1]
+    direction : reverse (targets -> fold, played backwards) | forward
+    resolve : search | replace | none (deadlocks left by the stepwise planners)
+    max_steps, max_rounds : step limit [default 1000 deg / step] and resolution rounds
+    apf_gain, lambda3 : field gain (1/s) and CAPF cooperative weight
+    raw : deliver the stepwise paths (constant speed, infinite acceleration), no
+        post-processing; they are checked at the planning buffer
+    budget_mm : buffer share of smoothing + simplification; trajectories are verified at
+        buffer - budget
+    max_points : most (angle, time) points per axis (firmware)
+    timing_backend : toppra | numba (time-optimal parametrisation backend)
+    """
+
+    algorithm: str = "greedy"
+    step_deg: float = 0.1
+    greed: float = 0.9
+    phobia: float = 0.3
+    direction: str = "reverse"
+    resolve: str = "search"
+    max_steps: int | None = None
+    max_rounds: int = 50
+    apf_gain: float = 1.0
+    lambda3: float = 0.03
+    raw: bool = False
+    budget_mm: float = DEFAULT_BUDGET_MM
+    max_points: int = DEFAULT_MAX_POINTS
+    timing_backend: str = DEFAULT_BACKEND
+
+    def __post_init__(self) -> None:
+        _choice("--algorithm", self.algorithm, ALL_ALGORITHMS)
+        _choice("--resolve", self.resolve, RESOLUTIONS)
+        _choice("--direction", self.direction, DIRECTIONS)
+        _choice("--timing-backend", self.timing_backend, BACKENDS)
+        self.planner_settings()   # range errors now, before anything is drawn or planned
+        if not self.stepwise:
+            self.field_settings()
+
+    @property
+    def stepwise(self) -> bool:
+        """True for the stepwise planners (greedy, markov, roadmap)."""
+        return self.algorithm in ALGORITHMS
+
+    def planner_settings(self) -> PlannerSettings:
+        """The stepwise planner's settings (field planners: the greedy defaults, unused)."""
+        return PlannerSettings(algorithm=self.algorithm if self.stepwise else "greedy",
+                               step_deg=self.step_deg, greed=self.greed, phobia=self.phobia,
+                               direction=self.direction, max_steps=self.max_steps,
+                               max_rounds=self.max_rounds,
+                               resolve="replace" if self.resolve == "none" else self.resolve)
+
+    def field_settings(self):
+        """ApfSettings / CapfSettings on the beta segments (field planners only)."""
+        from planners.apf import ApfSettings
+        from planners.capf import CapfSettings
+
+        if self.algorithm == "capf":
+            return CapfSettings(model="segment", gain=self.apf_gain, lambda3=self.lambda3)
+        return ApfSettings(model="segment", gain=self.apf_gain)
+
+
+class Reconfiguration:
+    """An array to reconfigure: spec, layout, buffer, offline robots and plan options.
+
+    Parameters
+    ----------
+    geom : ArrayGeometry (spec, layout and the planning buffer)
+    options : PlanOptions
+    offline : {robot_id: (alpha, beta) deg}: robots that never move, at these angles
+    """
+
+    def __init__(self, geom: ArrayGeometry, options: PlanOptions | None = None, *,
+                 offline: dict[int, tuple[float, float]] | None = None) -> None:
+        self.geom = geom
+        self.options = options if options is not None else PlanOptions()
+        self.offline = dict(offline or {})
+        self._field = None if self.options.stepwise else self.options.field_settings()
+
+    @classmethod
+    def from_names(cls, preset: str | RobotSpec = "sdss-v", layout: str | Layout | None = None, *,
+                   buffer_mm: float | None = None, fiducial_ids: tuple[int, ...] = (),
+                   options: PlanOptions | None = None,
+                   offline: dict[int, tuple[float, float]] | None = None) -> "Reconfiguration":
+        """From a preset name / robot TOML (or a RobotSpec) and a layout name (see
+        :func:`twin.layouts.resolve_layout`; default: the preset's instrument)."""
+        spec = preset if isinstance(preset, RobotSpec) else load_spec(preset)
+        if buffer_mm is not None:
+            spec = spec.with_overrides(buffer_mm=buffer_mm)
+        if not isinstance(layout, Layout):
+            layout = resolve_layout(layout or default_layout_name(spec), spec.pitch_mm, fiducial_ids)
+        return cls(ArrayGeometry(spec, layout, spec.buffer_mm), options, offline=offline)
+
+    @property
+    def spec(self) -> RobotSpec:
+        return self.geom.spec
+
+    @property
+    def layout(self) -> Layout:
+        return self.geom.layout
+
+    # ------------------------------------------------------------------------ targets
+    def target_margin_mm(self) -> float:
+        """Clearance beyond Eq. 3 that random targets keep (mm): the stepwise planners'
+        maximum displacement per step (Sayres 2021 step rule), or the field's barrier."""
+        if self._field is not None:
+            from planners.apf import apf_target_margin_mm
+
+            return apf_target_margin_mm(self.geom, self._field) + FIELD_TARGET_SLACK_MM
+        spec = self.spec
+        return max_displacement(spec.alpha_length_mm, spec.beta_length_mm,
+                                float(self.geom.seg_end.max()), self.options.step_deg)
+
+    def random_targets(self, rng: np.random.Generator) -> np.ndarray:
+        """Seeded random right-armed targets, mutually clear, (n_robots, 2) deg; offline
+        robots keep their parked angles."""
+        n = self.geom.n_robots
+        fixed = np.zeros(n, dtype=bool)
+        initial = np.zeros((n, 2))
+        for rid, ang in self.offline.items():
+            k = self.layout.robot_index(rid)
+            fixed[k] = True
+            initial[k] = ang
+        return random_targets(self.geom, rng, fixed=fixed, initial=initial,
+                              margin_mm=self.target_margin_mm())
+
+    def read_targets(self, path: str | Path) -> np.ndarray:
+        """Targets from a CSV file (see :func:`twin.targets_csv.read_targets_csv`)."""
+        from twin.targets_csv import read_targets_csv
+
+        return read_targets_csv(path, self.geom)
+
+    # ----------------------------------------------------------------------- the steps
+    def plan(self, targets: np.ndarray, rng: np.random.Generator, *,
+             on_round: Callable[[int, int], None] | None = None):
+        """Plan fold -> targets. Returns ``(Plan, ApfResult or None)``.
+
+        ``on_round(round, n_stuck)`` is called after each stepwise planner run."""
+        if self._field is not None:
+            from planners.apf import plan_apf_reconfiguration
+
+            return plan_apf_reconfiguration(self.geom, targets, self._field, offline=self.offline,
+                                            algorithm=self.options.algorithm)
+        o = self.options
+        plan = plan_reconfiguration(self.geom, targets, o.planner_settings(), rng,
+                                    offline=self.offline, resolve=o.resolve != "none",
+                                    progress=on_round)
+        return plan, None
+
+    def deliver(self, plan) -> tuple[Trajectory, object, object]:
+        """Firmware-ready trajectory (or the raw stepwise one), its post-processing report
+        (None when raw) and the independent 2D check of what is delivered:
+        ``(Trajectory, PostprocessReport | None, CheckReport)``.
+
+        Post-processed trajectories are checked at buffer - budget, raw ones at the
+        planning buffer; the check the post-processing ran last on the whole trajectory
+        is that check (it is not run twice)."""
+        o = self.options
+        if o.raw:
+            traj = Trajectory.from_plan(plan)
+            return traj, None, check_trajectory(traj, self.spec, self.layout, self.spec.buffer_mm)
+        traj, post = postprocess(plan, self.geom, budget_mm=o.budget_mm, max_points=o.max_points,
+                                 backend=o.timing_backend, verifier=check_trajectory)
+        check = post.final_check
+        if check is None:
+            check = check_trajectory(traj, self.spec, self.layout, post.verify_buffer_mm)
+        return traj, post, check
+
+    def run(self, *, seed: int = 0, targets: np.ndarray | None = None,
+            on_round: Callable[[int, int], None] | None = None,
+            on_stage: Callable[[str], None] | None = None) -> Outcome:
+        """Targets (given, or drawn from ``seed``), plan, post-process and check.
+
+        The random sequence is the one of ``rfp-twin plan --seed SEED``: the same
+        generator draws the targets and then drives the planner.
+        ``on_stage(name)`` is called as each stage starts: "targets", "planning",
+        "post-processing" (or "checking" when raw)."""
+        stage = on_stage or (lambda name: None)
+        clock = time.perf_counter()
+        seconds: dict[str, float] = {}
+        rng = np.random.default_rng(seed)
+        t0 = time.perf_counter()
+        stage("targets")
+        tg = self.random_targets(rng) if targets is None else np.asarray(targets, dtype=np.float64)
+        seconds["targets"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        stage("planning")
+        plan, field = self.plan(tg, rng, on_round=on_round)
+        seconds["plan"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        stage("checking" if self.options.raw else "post-processing")
+        traj, post, check = self.deliver(plan)
+        seconds["deliver"] = time.perf_counter() - t0
+        seconds["total"] = time.perf_counter() - clock
+        return Outcome(self, seed, tg, plan, field, traj, post, check, seconds)
+
+
+def plan_random(geom: ArrayGeometry, seed: int, options: PlanOptions | None = None) -> tuple:
+    """Seeded random targets and the (stepwise or field) plan, without post-processing:
+    ``(targets (n, 2) deg, Plan, ApfResult or None)``; the random sequence of ``run``."""
+    rc = Reconfiguration(geom, options)
+    rng = np.random.default_rng(seed)
+    targets = rc.random_targets(rng)
+    plan, field = rc.plan(targets, rng)
+    return targets, plan, field
+
+
+def folded_clearance_error(geom: ArrayGeometry) -> PlanningError | None:
+    """A PlanningError when every robot folded already collides (an infeasible design),
+    else None."""
+    spec = geom.spec
+    fold = np.tile(np.asarray(spec.fold_deg, dtype=np.float64), (geom.n_robots, 1))
+    clear = geom.pair_clearance(fold)
+    if clear.size and clear.min() <= 0.0:
+        return PlanningError(f"folded state {tuple(spec.fold_deg)} deg collides (clearance "
+                             f"{clear.min():.3f} mm at pitch {spec.pitch_mm:g} mm, buffer "
+                             f"{spec.buffer_mm:g} mm): infeasible")
+    return None
