@@ -13,12 +13,16 @@ import io
 import math
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from models.errors import LayoutError
 from models.files import atomic_write_text
 from models.layout.checks import KINDS, closest_violation
+
+if TYPE_CHECKING:
+    from models.layout.core import Layout
 
 #: Columns every layout CSV must have, in the order :meth:`Layout.to_csv` writes them.
 REQUIRED_COLUMNS = ("id", "x_mm", "y_mm", "kind")
@@ -35,7 +39,7 @@ class LayoutCsv:
 
     @classmethod
     def from_csv(cls, path: str | os.PathLike, min_separation_mm: float = 1.0,
-                 name: str | None = None):
+                 name: str | None = None) -> Layout:
         """Read a layout CSV with columns ``id,x_mm,y_mm,kind`` (+ any extra columns).
 
         Extra columns are kept verbatim as ``(n,)`` str arrays in :attr:`extra`.
