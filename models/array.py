@@ -6,7 +6,8 @@ Indices are robot indices (0..n_robots-1 in layout order), not robot ids.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -21,66 +22,109 @@ MIN_BUFFER_MM = 0.0
 
 @dataclass(frozen=True)
 class ArrayGeometry:
-    """Flat arrays describing one array at one buffer.
+    """Flat arrays describing one array at one buffer (n robots, m fiducials).
 
     Attributes
     ----------
     spec : RobotSpec
     layout : Layout
     buffer_mm : float, sigma_cb for every robot
-    base_xy : (n, 2) float64 mm; robot_ids : (n,) int64
-    buffer, seg_end : (n,) float64 mm
-    nbr_ptr, nbr_idx : CSR adjacency (Eq. 4); nbr_dist : base distance per entry, mm
-    pairs : (p, 2) int64, each neighbour pair once (i < j)
-    fid_xy : (m, 2) mm; fiducial_ids : (m,); fid_ptr, fid_idx : CSR robot -> fiducials
-    robot_fid_pairs : (q, 2) int64 (robot index, fiducial index)
+
+    The arrays below are computed on first use and then kept (read them, do not write).
     """
 
     spec: RobotSpec
     layout: Layout
     buffer_mm: float
-    base_xy: np.ndarray = field(init=False, repr=False)
-    robot_ids: np.ndarray = field(init=False, repr=False)
-    buffer: np.ndarray = field(init=False, repr=False)
-    seg_end: np.ndarray = field(init=False, repr=False)
-    nbr_ptr: np.ndarray = field(init=False, repr=False)
-    nbr_idx: np.ndarray = field(init=False, repr=False)
-    nbr_dist: np.ndarray = field(init=False, repr=False)
-    pairs: np.ndarray = field(init=False, repr=False)
-    fid_xy: np.ndarray = field(init=False, repr=False)
-    fiducial_ids: np.ndarray = field(init=False, repr=False)
-    fid_ptr: np.ndarray = field(init=False, repr=False)
-    fid_idx: np.ndarray = field(init=False, repr=False)
-    robot_fid_pairs: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         b = float(self.buffer_mm)
         if not np.isfinite(b) or b <= MIN_BUFFER_MM or b >= self.spec.pitch_mm / 2:
             raise SpecError(f"field 'buffer_mm' = {self.buffer_mm!r}; allowed: "
                             f"({MIN_BUFFER_MM}, {self.spec.pitch_mm / 2}) mm")
-        put = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 (frozen dataclass)
-        lay = self.layout
-        n = lay.n_robots
-        put("base_xy", np.ascontiguousarray(lay.robot_xy, dtype=np.float64))
-        put("robot_ids", np.asarray(lay.robot_ids, dtype=np.int64))
-        put("buffer", np.full(n, b))
-        put("seg_end", np.full(n, self.spec.segment_end(b)))
-        reach = self.spec.neighbour_reach_mm(b)
-        ptr, idx = lay.neighbour_csr(reach)
-        put("nbr_ptr", np.asarray(ptr, dtype=np.int64))
-        put("nbr_idx", np.asarray(idx, dtype=np.int64))
-        owner = np.repeat(np.arange(n), np.diff(self.nbr_ptr))
-        put("nbr_dist", np.hypot(*(self.base_xy[owner] - self.base_xy[self.nbr_idx]).T).copy())
+
+    # -- robots ----------------------------------------------------------------
+    @cached_property
+    def base_xy(self) -> np.ndarray:
+        """(n, 2) float64 robot base centres, mm."""
+        return np.ascontiguousarray(self.layout.robot_xy, dtype=np.float64)
+
+    @cached_property
+    def robot_ids(self) -> np.ndarray:
+        """(n,) int64 robot ids, layout order."""
+        return np.asarray(self.layout.robot_ids, dtype=np.int64)
+
+    @cached_property
+    def buffer(self) -> np.ndarray:
+        """(n,) float64 collision buffer of each robot, mm."""
+        return np.full(self.n_robots, float(self.buffer_mm))
+
+    @cached_property
+    def seg_end(self) -> np.ndarray:
+        """(n,) float64 end of each robot's beta collision segment, mm."""
+        return np.full(self.n_robots, self.spec.segment_end(float(self.buffer_mm)))
+
+    # -- robot neighbours (Eq. 4) --------------------------------------------------
+    @cached_property
+    def _nbr_csr(self) -> tuple[np.ndarray, np.ndarray]:
+        ptr, idx = self.layout.neighbour_csr(self.spec.neighbour_reach_mm(float(self.buffer_mm)))
+        return np.asarray(ptr, dtype=np.int64), np.asarray(idx, dtype=np.int64)
+
+    @property
+    def nbr_ptr(self) -> np.ndarray:
+        """(n + 1,) int64 CSR row pointers of the neighbour graph."""
+        return self._nbr_csr[0]
+
+    @property
+    def nbr_idx(self) -> np.ndarray:
+        """(2 p,) int64 neighbours of robot ``i``: ``nbr_idx[nbr_ptr[i]:nbr_ptr[i + 1]]``."""
+        return self._nbr_csr[1]
+
+    @cached_property
+    def nbr_dist(self) -> np.ndarray:
+        """(2 p,) float64 base distance of each ``nbr_idx`` entry to its robot, mm."""
+        owner = _csr_rows(self.nbr_ptr)
+        return np.hypot(*(self.base_xy[owner] - self.base_xy[self.nbr_idx]).T).copy()
+
+    @cached_property
+    def pairs(self) -> np.ndarray:
+        """(p, 2) int64 each neighbour pair once, ``i < j``."""
+        owner = _csr_rows(self.nbr_ptr)
         mask = owner < self.nbr_idx
-        put("pairs", np.column_stack([owner[mask], self.nbr_idx[mask]]).astype(np.int64))
-        put("fid_xy", np.ascontiguousarray(lay.fiducial_xy, dtype=np.float64).reshape(-1, 2))
-        put("fiducial_ids", np.asarray(lay.fiducial_ids, dtype=np.int64))
-        fid_reach = self.spec.collision_reach_mm(b) + self.spec.fiducial_buffer_mm
-        fptr, fidx = lay.robot_fiducial_csr(fid_reach)
-        put("fid_ptr", np.asarray(fptr, dtype=np.int64))
-        put("fid_idx", np.asarray(fidx, dtype=np.int64))
-        fowner = np.repeat(np.arange(n), np.diff(self.fid_ptr))
-        put("robot_fid_pairs", np.column_stack([fowner, self.fid_idx]).astype(np.int64).reshape(-1, 2))
+        return np.column_stack([owner[mask], self.nbr_idx[mask]]).astype(np.int64)
+
+    # -- fiducials -----------------------------------------------------------------
+    @cached_property
+    def fid_xy(self) -> np.ndarray:
+        """(m, 2) float64 fiducial centres, mm."""
+        return np.ascontiguousarray(self.layout.fiducial_xy, dtype=np.float64).reshape(-1, 2)
+
+    @cached_property
+    def fiducial_ids(self) -> np.ndarray:
+        """(m,) int64 fiducial ids, layout order."""
+        return np.asarray(self.layout.fiducial_ids, dtype=np.int64)
+
+    @cached_property
+    def _fid_csr(self) -> tuple[np.ndarray, np.ndarray]:
+        b = float(self.buffer_mm)
+        reach = self.spec.collision_reach_mm(b) + self.spec.fiducial_buffer_mm
+        ptr, idx = self.layout.robot_fiducial_csr(reach)
+        return np.asarray(ptr, dtype=np.int64), np.asarray(idx, dtype=np.int64)
+
+    @property
+    def fid_ptr(self) -> np.ndarray:
+        """(n + 1,) int64 CSR row pointers, robot -> nearby fiducials."""
+        return self._fid_csr[0]
+
+    @property
+    def fid_idx(self) -> np.ndarray:
+        """Fiducial indices near robot ``i``: ``fid_idx[fid_ptr[i]:fid_ptr[i + 1]]``."""
+        return self._fid_csr[1]
+
+    @cached_property
+    def robot_fid_pairs(self) -> np.ndarray:
+        """(q, 2) int64 (robot index, fiducial index) pairs that can touch."""
+        return np.column_stack([_csr_rows(self.fid_ptr), self.fid_idx]).astype(np.int64).reshape(-1, 2)
 
     @property
     def n_robots(self) -> int:
@@ -104,3 +148,8 @@ class ArrayGeometry:
                                self.robot_fid_pairs, self.fid_xy, self.spec.alpha_length_mm,
                                self.spec.segment_start_mm, self.seg_end)
         return d - self.buffer[self.robot_fid_pairs[:, 0]] - self.fiducial_buffer
+
+
+def _csr_rows(ptr: np.ndarray) -> np.ndarray:
+    """Row index of every entry of a CSR with row pointers ``ptr`` (n + 1,)."""
+    return np.repeat(np.arange(len(ptr) - 1), np.diff(ptr))

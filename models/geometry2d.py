@@ -45,17 +45,26 @@ def segment_distance(ax, ay, bx, by, cx, cy, dx, dy):
 
 
 @njit(cache=True, inline="always")
-def _point_segment_sq(px, py, ax, ay, bx, by):
-    """Squared distance from point P to segment AB, mm^2."""
+def _project_sq(px, py, ax, ay, bx, by):
+    """Nearest point F of segment AB to point P: ``(|PF|^2 mm^2, t, fx, fy)`` with
+    ``F = A + t (B - A)``, ``t`` in [0, 1] (``t = 0`` for a degenerate segment)."""
     ux = bx - ax
     uy = by - ay
     den = ux * ux + uy * uy
     t = 0.0
     if den > 0.0:
         t = min(1.0, max(0.0, ((px - ax) * ux + (py - ay) * uy) / den))
-    ex = ax + t * ux - px
-    ey = ay + t * uy - py
-    return ex * ex + ey * ey
+    fx = ax + t * ux
+    fy = ay + t * uy
+    ex = fx - px
+    ey = fy - py
+    return ex * ex + ey * ey, t, fx, fy
+
+
+@njit(cache=True, inline="always")
+def _point_segment_sq(px, py, ax, ay, bx, by):
+    """Squared distance from point P to segment AB, mm^2."""
+    return _project_sq(px, py, ax, ay, bx, by)[0]
 
 
 @njit(cache=True, inline="always")
@@ -79,20 +88,6 @@ def segment_closest(ax, ay, bx, by, cx, cy, dx, dy):
     """
     d2, s_best, px, py, qx, qy = segment_closest_sq(ax, ay, bx, by, cx, cy, dx, dy)
     return math.sqrt(d2), s_best, px, py, qx, qy
-
-
-@njit(cache=True, inline="always")
-def _project_sq(ex, ey, ax, ay, bx, by):
-    """As :func:`_project` with the squared distance (no square root)."""
-    ux = bx - ax
-    uy = by - ay
-    den = ux * ux + uy * uy
-    t = 0.0
-    if den > 0.0:
-        t = min(1.0, max(0.0, ((ex - ax) * ux + (ey - ay) * uy) / den))
-    fx = ax + t * ux
-    fy = ay + t * uy
-    return (ex - fx) ** 2 + (ey - fy) ** 2, t, fx, fy
 
 
 @njit(cache=True, inline="always")
@@ -133,6 +128,13 @@ def beta_segment(bx, by, alpha_deg, beta_deg, l_alpha, s0, s1):
     return ex + s0 * c, ey + s0 * s, ex + s1 * c, ey + s1 * s
 
 
+@njit(cache=True, inline="always")
+def _robot_segment(base_xy, angles, i, l_alpha, s0, seg_end):
+    """:func:`beta_segment` of robot index ``i`` (rows of ``base_xy``, ``angles``, ``seg_end``)."""
+    return beta_segment(base_xy[i, 0], base_xy[i, 1], angles[i, 0], angles[i, 1], l_alpha, s0,
+                        seg_end[i])
+
+
 @njit(cache=True)
 def pair_distances(base_xy, angles, pairs, l_alpha, seg_start, seg_end):
     """Segment distance of each robot pair, mm.
@@ -151,12 +153,8 @@ def pair_distances(base_xy, angles, pairs, l_alpha, seg_start, seg_end):
     """
     out = np.empty(pairs.shape[0])
     for k in range(pairs.shape[0]):
-        i = pairs[k, 0]
-        j = pairs[k, 1]
-        a0x, a0y, a1x, a1y = beta_segment(base_xy[i, 0], base_xy[i, 1], angles[i, 0], angles[i, 1],
-                                          l_alpha, seg_start, seg_end[i])
-        b0x, b0y, b1x, b1y = beta_segment(base_xy[j, 0], base_xy[j, 1], angles[j, 0], angles[j, 1],
-                                          l_alpha, seg_start, seg_end[j])
+        a0x, a0y, a1x, a1y = _robot_segment(base_xy, angles, pairs[k, 0], l_alpha, seg_start, seg_end)
+        b0x, b0y, b1x, b1y = _robot_segment(base_xy, angles, pairs[k, 1], l_alpha, seg_start, seg_end)
         out[k] = segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y)
     return out
 
@@ -169,9 +167,8 @@ def fiducial_distances(base_xy, angles, robot_fid, fid_xy, l_alpha, seg_start, s
     """
     out = np.empty(robot_fid.shape[0])
     for k in range(robot_fid.shape[0]):
-        i = robot_fid[k, 0]
         f = robot_fid[k, 1]
-        a0x, a0y, a1x, a1y = beta_segment(base_xy[i, 0], base_xy[i, 1], angles[i, 0], angles[i, 1],
-                                          l_alpha, seg_start, seg_end[i])
+        a0x, a0y, a1x, a1y = _robot_segment(base_xy, angles, robot_fid[k, 0], l_alpha, seg_start,
+                                            seg_end)
         out[k] = point_segment_distance(fid_xy[f, 0], fid_xy[f, 1], a0x, a0y, a1x, a1y)
     return out

@@ -21,14 +21,18 @@ from typing import Any
 
 from models.errors import SpecError
 
-#: ``segment_end_mm`` value selecting the SDSS-V production rule (kaiju-anchor.md).
+# The SDSS-V production numbers below are those of SDSS-V's own software: the coordinate
+# package coordio (defaults) and the production planner kaiju 1.4.1.
+#: ``segment_end_mm`` value selecting the SDSS-V production rule (kaiju 1.4.1).
 SDSS_PRODUCTION_SEGMENT = "sdss-production"
-#: Beta axis to the flat tip of the SDSS-V beta arm, mm (kaiju-anchor.md).
+#: Beta axis to the flat tip of the SDSS-V beta arm, mm (coordio defaults).
 SDSS_BETA_TIP_MM = 16.2
-#: Half-width of the SDSS-V flat tip, mm (tip 0.6 mm wide, kaiju-anchor.md).
+#: Half-width of the SDSS-V flat tip, mm (tip 0.6 mm wide, coordio defaults).
 SDSS_TIP_HALF_WIDTH_MM = 0.3
-#: Constant of the production segment rule, mm (kaiju-anchor.md).
+#: Constant of the production segment rule (tip corner protection), mm (coordio/kaiju).
 SDSS_TIP_OFFSET_MM = 0.55
+#: ``RobotSpec.source`` of a built-in preset is this prefix + the preset name.
+_PRESET_PREFIX = "preset "
 
 
 def sdss_production_segment_end(buffer_mm: float) -> float:
@@ -244,7 +248,7 @@ def _toml_text(name_or_path: str | Path) -> tuple[str, str]:
     if not preset.is_file():
         raise SpecError(f"unknown preset {str(name_or_path)!r}; allowed: {', '.join(list_presets())} "
                         "or a path to a .toml file")
-    return preset.read_text(encoding="utf-8"), f"preset {name_or_path}"
+    return preset.read_text(encoding="utf-8"), f"{_PRESET_PREFIX}{name_or_path}"
 
 
 def _merge(base: dict, over: dict) -> dict:
@@ -300,3 +304,15 @@ def load_spec(name_or_path: str | Path = "sdss-v") -> RobotSpec:
 def load_tables(name_or_path: str | Path = "sdss-v") -> dict:
     """The merged TOML tables of a preset, for modules that read extra tables."""
     return _read_toml(name_or_path)[0]
+
+
+def spec_origin(spec: RobotSpec) -> str | None:
+    """The preset name or ``.toml`` path a spec was loaded from (read off ``spec.source``),
+    or None for a spec built in memory or whose file is gone. :func:`load_tables` of it
+    gives the spec's other tables (``[geometry]``, ``[actuators]``)."""
+    src = spec.source
+    if src.startswith(_PRESET_PREFIX):
+        return src[len(_PRESET_PREFIX):]
+    if src.endswith(".toml") and Path(src).is_file():
+        return src
+    return None

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from models.geometry2d import (beta_segment, fiducial_distances, pair_distances,
-                               point_segment_distance, segment_distance)
+                               point_segment_distance, segment_closest, segment_closest_sq,
+                               segment_distance, segments_within)
 from models.kinematics import forward
 
 LA, LB, PITCH = 7.4, 15.0, 22.4
@@ -241,3 +242,32 @@ def test_fiducial_distances():
     assert d[1] == pytest.approx(5.0, abs=1e-9)
     # robot 1's elbow (29.8, 0) is its nearest point to (-22.4, 0)
     assert d[2] == pytest.approx(2 * PITCH + LA, abs=1e-9)
+
+
+def test_closest_points_realise_the_distance():
+    """segment_closest: the closest points that the Markov energy gradient relies on."""
+    rng = np.random.default_rng(5)
+    for _ in range(500):
+        a, b, c, d = rng.uniform(-10, 10, size=(4, 2))
+        dist, s, px, py, qx, qy = segment_closest(*a, *b, *c, *d)
+        ref = segment_distance(*a, *b, *c, *d)
+        if ref == 0.0:
+            continue  # crossing: not used by the planner
+        assert abs(dist - ref) < 1e-9
+        np.testing.assert_allclose([px, py], a + s * (b - a), atol=1e-9)
+        assert 0.0 <= s <= 1.0
+        assert abs(np.hypot(px - qx, py - qy) - dist) < 1e-9
+        d2, s2, *pq2 = segment_closest_sq(*a, *b, *c, *d)
+        assert math.sqrt(d2) == dist
+        assert (s2, *pq2) == (s, px, py, qx, qy)
+
+
+def test_segments_within_agrees_with_the_distance():
+    rng = np.random.default_rng(8)
+    for _ in range(2000):
+        a, b, c, d = rng.uniform(-10, 10, size=(4, 2))
+        r = rng.uniform(0.0, 6.0)
+        dist = segment_distance(*a, *b, *c, *d)
+        if abs(dist - r) > 1e-9:
+            assert segments_within(*a, *b, *c, *d, r) == (dist <= r)
+    assert segments_within(0.0, 0.0, 10.0, 0.0, 5.0, -1.0, 5.0, 1.0, 0.0)   # crossing

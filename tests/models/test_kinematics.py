@@ -161,3 +161,8 @@ def test_sample_patrol_zone_desi_equal_arms():
     assert np.all(np.isfinite(ang))
     fiber, _ = fwd(np.zeros((1000, 2)), ang, 3.0, 3.0)
     assert np.all(np.hypot(fiber[:, 0], fiber[:, 1]) <= 6.0 + 1e-9)
+
+
+def test_inverse_rejects_mismatched_shapes():
+    with pytest.raises(TargetError, match=r"allowed: both \(n, 2\)"):
+        inverse(np.zeros((1, 2)), np.ones((5, 2)), 7.4, 15.0)

@@ -1,20 +1,21 @@
 """Tests of models.robot: presets, TOML loading/validation, derived quantities.
 
 Facts: Sayres 2021 Sect. 3-4 (7.4 / 15 mm arms, 22.4 mm pitch, 30 deg/s, fold (10, 170),
-buffer 2.5 mm = Eq. 12, neighbour reach Eq. 4); kaiju-anchor.md (production segment end
+buffer 2.5 mm = Eq. 12, neighbour reach Eq. 4); SDSS-V coordio/kaiju 1.4.1 (production segment end
 16.2 - (sqrt(cb^2 + 0.3^2) - 0.55) mm, 14.73 mm at cb = 2.0); Makarem 2014 (DESI 3 + 3 mm,
 10.4 mm pitch).
 """
 from __future__ import annotations
 
 import math
+from importlib import resources
 from pathlib import Path
 
 import pytest
 
 from models.errors import RfpError, SpecError
 from models.robot import (RobotSpec, list_presets, load_spec, load_tables,
-                          sdss_production_segment_end, spec_from_dict)
+                          sdss_production_segment_end, spec_from_dict, spec_origin)
 
 # A complete, valid spec file; tests break one thing at a time.
 VALID = """\
@@ -351,3 +352,35 @@ def test_spec_is_frozen():
     s = load_spec("sdss-v")
     with pytest.raises(AttributeError):
         s.buffer_mm = 3.0  # type: ignore[misc]
+
+
+# -- where a spec came from ------------------------------------------------------------
+def test_folder_named_like_a_preset_does_not_hide_it(tmp_path, monkeypatch):
+    (tmp_path / "sdss-v").mkdir()
+    monkeypatch.chdir(tmp_path)
+    assert load_spec("sdss-v").alpha_length_mm == 7.4
+
+
+def test_relative_extends_is_resolved_from_the_file(tmp_path, monkeypatch):
+    d = tmp_path / "specs"
+    d.mkdir()
+    (d / "base.toml").write_text(_sdss_text())
+    (d / "mine.toml").write_text('extends = "base.toml"\n[robot]\npitch_mm = 20.0\n')
+    monkeypatch.chdir(tmp_path)
+    spec = load_spec(d / "mine.toml")
+    assert spec.pitch_mm == 20.0 and spec.alpha_length_mm == 7.4
+
+
+def _sdss_text() -> str:
+    return (resources.files("models") / "presets" / "sdss-v.toml").read_text()
+
+
+def test_spec_origin_names_the_preset_or_file(tmp_path):
+    assert spec_origin(load_spec("desi")) == "desi"
+    path = write(tmp_path, VALID)
+    spec = load_spec(path)
+    assert spec_origin(spec) == str(path)
+    assert load_tables(spec_origin(spec))["robot"]["name"] == "test-robot"
+    assert spec_origin(spec.with_overrides(source="<memory>")) is None
+    path.unlink()
+    assert spec_origin(spec) is None                                # the file is gone

@@ -1,0 +1,25 @@
+"""The 3D robot: procedural trimesh meshes of each link, or the user's own CAD meshes.
+
+Lengths in mm, angles in degrees, z up. Geometry comes from the ``[geometry]`` table of
+a preset (see ``models/presets``); :func:`geometry_for_spec` gives the 3D robot of any
+:class:`models.robot.RobotSpec`. Modules:
+
+- :mod:`models.geometry.dimensions`: link frames, SDSS-V defaults, :class:`GeometryParams`
+- :mod:`models.geometry.params`: the ``[geometry]`` TOML table, parsed and checked
+- :mod:`models.geometry.shapes`: procedural outlines and meshes (prism, cylinder, union)
+- :mod:`models.geometry.cad`: user STL/OBJ meshes and their convex pieces
+- :mod:`models.geometry.robot_geometry`: :class:`RobotGeometry`, built and loaded
+"""
+from models.geometry.cad import MESH_SUFFIXES, UNIT_RATIO_LIMIT, load_cad_mesh, slab_pieces
+from models.geometry.dimensions import (LINKS, MOVING_LINKS, SDSS_V_DEFAULTS, GeometryParams,
+                                        default_params)
+from models.geometry.params import params_from_tables, validate_params
+from models.geometry.robot_geometry import (Link, RobotGeometry, build_geometry,
+                                            geometry_for_spec, load_geometry)
+from models.geometry.shapes import alpha_outline, beta_outline, cylinder, prism, union
+
+__all__ = ["LINKS", "MESH_SUFFIXES", "MOVING_LINKS", "SDSS_V_DEFAULTS", "UNIT_RATIO_LIMIT",
+           "GeometryParams", "Link", "RobotGeometry", "alpha_outline", "beta_outline",
+           "build_geometry", "cylinder", "default_params", "geometry_for_spec", "load_cad_mesh",
+           "load_geometry", "params_from_tables", "prism", "slab_pieces", "union",
+           "validate_params"]

@@ -1,0 +1,25 @@
+"""Layouts: where the robot and fiducial bases sit on the focal plane (mm).
+
+:class:`Layout` holds ids ``(n,)``, base centres ``xy`` ``(n, 2)`` mm and kinds
+(``robot`` / ``fiducial``). Modules:
+
+- :mod:`models.layout.core`: the :class:`Layout` type, its checks and generated grids
+- :mod:`models.layout.grids`: centred hex lattice arithmetic (counts, coordinates)
+- :mod:`models.layout.csv_io`: CSV read/write
+- :mod:`models.layout.neighbours`: neighbour lists (Sayres 2021 Eq. 4)
+- :mod:`models.layout.by_name`: a layout from a name (``sdss-v-fps``, ``hex:N``, a CSV)
+"""
+from models.layout.by_name import layout_by_name
+from models.layout.checks import KINDS
+from models.layout.core import SDSS_V_FPS_CSV, Layout
+from models.layout.csv_io import REQUIRED_COLUMNS
+from models.layout.grids import (SDSS_V_RINGS, hex_axial, hex_count, hex_rings, hex_xy,
+                                 nearest_hex_counts)
+from models.layout.neighbours import REACH_TOL_MM
+
+#: Old private name of :func:`nearest_hex_counts`, still imported by twin/studies.py.
+_nearest_hex_counts = nearest_hex_counts
+
+__all__ = ["KINDS", "REACH_TOL_MM", "REQUIRED_COLUMNS", "SDSS_V_FPS_CSV",
+           "SDSS_V_RINGS", "Layout", "hex_axial", "hex_count", "hex_rings", "hex_xy",
+           "layout_by_name", "nearest_hex_counts"]

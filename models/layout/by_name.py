@@ -1,0 +1,63 @@
+"""A layout from its name, as the command line gives it.
+
+Names: ``sdss-v-fps`` (the real SDSS-V focal plane: 500 robots, 60 fiducials),
+``sdss-v-547`` (the all-robot 13-ring grid of Sayres 2021 Sect. 3.2), ``hex:N`` (a
+centred hex grid of N positions: 7, 19, 37, 61, 91, ...) or the path of a layout CSV.
+Pitch in mm; fiducial ids turn positions of a generated grid into fiducials. A bad name
+raises :class:`models.errors.LayoutError` (an unknown fiducial id
+:class:`models.errors.UnknownRobotError`) with a one-line message.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from models.errors import LayoutError
+from models.layout.core import Layout
+
+def layout_by_name(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = ()) -> Layout:
+    """Layout from a name: ``sdss-v-fps`` (the real 500-robot instrument), ``sdss-v-547``
+    (the paper's all-robot grid), ``hex:N`` (a hex grid of N positions: 7, 19, 37, 61, 91,
+    ...), or a CSV path.
+
+    Parameters
+    ----------
+    name : str
+    pitch_mm : float
+        Grid pitch of generated grids, mm; a CSV is read with a minimum base separation
+        of ``min(1, pitch_mm / 4)`` mm.
+    fiducial_ids : tuple of int
+        Positions of a generated grid (``sdss-v-547``, ``hex:N``) that are fiducials.
+
+    Raises
+    ------
+    LayoutError
+        Unknown name, ``hex:N`` with a bad N, fiducial ids on a layout that is not
+        generated, or a bad CSV.
+    UnknownRobotError
+        A fiducial id that is not a position of the grid.
+    """
+    if fiducial_ids and (name == "sdss-v-fps" or not (name == "sdss-v-547" or name.startswith("hex:"))):
+        raise LayoutError(f"--fiducials applies to generated grids (sdss-v-547, hex:N), not {name!r}; "
+                          "a CSV layout says each position's kind itself")
+    if name == "sdss-v-fps":
+        return Layout.sdss_v_fps()
+    if name == "sdss-v-547":
+        return Layout.sdss_v_grid(pitch_mm=pitch_mm, fiducial_ids=fiducial_ids)
+    if name.startswith("hex:"):
+        try:
+            n = int(name[4:])
+        except ValueError:
+            raise LayoutError(f"layout {name!r}: 'hex:N' needs an integer N") from None
+        grid = Layout.hex_grid_positions(n, pitch_mm)
+        if fiducial_ids:
+            grid.robot_indices(list(fiducial_ids))  # names an unknown id
+            kinds = grid.kinds.copy()
+            kinds[np.isin(grid.ids, fiducial_ids)] = "fiducial"
+            grid = Layout(grid.ids, grid.xy, kinds, name=grid.name)
+        return grid
+    path = Path(name)
+    if path.suffix.lower() != ".csv" and not path.exists():
+        raise LayoutError(f"layout {name!r}: allowed: sdss-v-fps, sdss-v-547, hex:N or a CSV file")
+    return Layout.from_csv(path, min_separation_mm=min(1.0, pitch_mm / 4))

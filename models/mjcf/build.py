@@ -1,0 +1,117 @@
+"""Build the MuJoCo grid model with ``mujoco.MjSpec`` (no XML templating), compile or export it.
+
+Lengths in mm, angles in degrees at this API. :func:`build_spec` assembles the
+uncompiled spec (default classes, robot and fiducial bodies from
+:mod:`models.mjcf.bodies`, plate, lights and cameras from :mod:`models.mjcf.cameras`);
+:func:`build_model` compiles it into a :class:`TwinModel`; :func:`export_model` writes
+``rfp-twin.xml`` and its STL meshes. Errors raise :class:`models.errors.SpecError`.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import trimesh
+
+from models.errors import SpecError
+from models.files import atomic_write_bytes
+from models.geometry import RobotGeometry, geometry_for_spec
+from models.layout import Layout
+from models.mjcf.bodies import add_default_classes, add_grid
+from models.mjcf.cameras import add_scene
+from models.mjcf.index import ModelIndex
+from models.mjcf.options import INTEGRATORS, MESH_DIR, MODEL_FILE, ModelOptions, servo_for
+from models.mjcf.twin_model import TwinModel
+from models.robot import RobotSpec
+
+
+def build_spec(spec: RobotSpec, layout: Layout, geometry: RobotGeometry | None = None,
+               options: ModelOptions | None = None, mesh_files: dict | None = None,
+               model_name: str | None = None) -> mujoco.MjSpec:
+    """The uncompiled MjSpec of a grid.
+
+    Parameters
+    ----------
+    spec, layout : the robots and where they stand.
+    geometry : RobotGeometry, default :func:`models.geometry.geometry_for_spec`.
+    options : ModelOptions.
+    mesh_files : dict, optional
+        If given, meshes refer to files ``<name>.stl`` (in ``meshdir`` "meshes") and this
+        dict is filled with file name -> trimesh for the caller to write; otherwise the
+        vertices are inline.
+
+    Raises
+    ------
+    SpecError
+        Geometry that does not fit the layout (alpha arms overlapping at rest).
+    """
+    geometry = geometry if geometry is not None else geometry_for_spec(spec)
+    options = options if options is not None else ModelOptions()
+    servo = options.servo if options.servo is not None else servo_for(spec)
+    p = geometry.params
+    if layout.n_robots == 0:
+        raise SpecError(f"layout {layout.name!r}: no robots; allowed: at least one robot")
+    s = mujoco.MjSpec()
+    s.modelname = model_name or f"rfp-twin-{spec.name}-{layout.name}"
+    s.compiler.degree = False
+    s.option.timestep = float(options.timestep_s)
+    s.option.integrator = INTEGRATORS[options.integrator]
+    s.option.gravity = [0.0, 0.0, -9810.0]  # mm/s^2 (no effect on z hinges)
+    if mesh_files is not None:
+        s.meshdir = MESH_DIR
+
+    vis, col = add_default_classes(s)
+    base_z = p.focal_z_mm - p.fiber_z_mm
+    add_grid(s, spec, layout, geometry, servo, options.collide_alpha, base_z, vis, col, mesh_files)
+    add_scene(s, spec, layout, p, base_z, options.closeup_robot, vis)
+    return s
+
+
+def build_model(spec: RobotSpec, layout: Layout, geometry: RobotGeometry | None = None,
+                options: ModelOptions | None = None) -> TwinModel:
+    """Build and compile the grid model.
+
+    Returns
+    -------
+    TwinModel
+        The MjModel, the MjSpec, the id index and the inputs.
+    """
+    geometry = geometry if geometry is not None else geometry_for_spec(spec)
+    options = options if options is not None else ModelOptions()
+    s = build_spec(spec, layout, geometry, options)
+    try:
+        m = s.compile()
+    except ValueError as exc:
+        raise SpecError(f"MuJoCo could not compile the {spec.name} model: {exc}") from None
+    index = ModelIndex.from_model(m, layout, tuple(n for n, _, _ in geometry.params.fibers))
+    base_z = geometry.params.focal_z_mm - geometry.params.fiber_z_mm
+    return TwinModel(m, s, index, spec, layout, geometry, options, base_z)
+
+
+def export_model(spec: RobotSpec, layout: Layout, out_dir: str | Path,
+                 geometry: RobotGeometry | None = None,
+                 options: ModelOptions | None = None) -> Path:
+    """Write the MJCF model and its meshes: ``out_dir/rfp-twin.xml`` and
+    ``out_dir/meshes/*.stl`` (binary STL, mm). Each file is written to a temp file and
+    renamed. Returns the XML path; ``mujoco.MjModel.from_xml_path`` loads it.
+    """
+    out = Path(out_dir)
+    mesh_dir = out / MESH_DIR
+    try:
+        mesh_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SpecError(f"{out}: cannot create the output folder ({exc.strerror}); allowed: a "
+                        "writable path") from None
+    geometry = geometry if geometry is not None else geometry_for_spec(spec)
+    files: dict[str, trimesh.Trimesh] = {}
+    s = build_spec(spec, layout, geometry, options, mesh_files=files)
+    for fname, mesh in files.items():
+        atomic_write_bytes(mesh_dir / fname, mesh.export(file_type="stl"))
+    s.modelfiledir = str(out)
+    try:
+        s.compile()
+    except ValueError as exc:
+        raise SpecError(f"MuJoCo could not compile the exported model: {exc}") from None
+    xml_path = out / MODEL_FILE
+    atomic_write_bytes(xml_path, s.to_xml().encode("utf-8"))
+    return xml_path
