@@ -9,7 +9,6 @@ Public API (imported on first use, so that ``rfp-twin --help`` stays fast)::
 - :class:`Reconfiguration`, :class:`PlanOptions`, :func:`plan_random` (:mod:`twin.pipeline`):
   targets -> plan -> post-process -> independent 2D check; :class:`Outcome`
   (:mod:`twin.outcome`): summary and run folder; :func:`load_run` (:mod:`twin.run_dir`).
-- :func:`resolve_layout` (:mod:`twin.layouts`): layouts by name.
 - The MuJoCo twin: :func:`simulate` (:mod:`twin.sim`), :func:`render_run`
   (:mod:`twin.render`), :func:`record_run` (:mod:`twin.record`).
 - Studies: :func:`load_study`, :func:`run_study` (:mod:`twin.studies`).
@@ -21,7 +20,7 @@ import importlib
 _EXPORTS = {
     "Reconfiguration": "twin.pipeline", "PlanOptions": "twin.pipeline",
     "plan_random": "twin.pipeline", "Outcome": "twin.outcome", "load_run": "twin.run_dir",
-    "write_run": "twin.run_dir", "resolve_layout": "twin.layouts", "simulate": "twin.sim",
+    "write_run": "twin.run_dir", "simulate": "twin.sim",
     "render_run": "twin.render", "record_run": "twin.record", "load_study": "twin.studies",
     "run_study": "twin.studies",
 }

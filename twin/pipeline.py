@@ -38,7 +38,7 @@ from planners.solver import ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings, 
 from planners.stepwise import max_displacement
 from planners.targets import random_targets
 from planners.timing import BACKENDS, DEFAULT_BACKEND
-from twin.layouts import default_layout_name, resolve_layout
+from models.layout import default_layout_name, layout_by_name
 from twin.outcome import Outcome
 from validation.checker2d import check_trajectory
 
@@ -149,12 +149,12 @@ class Reconfiguration:
                    options: PlanOptions | None = None,
                    offline: dict[int, tuple[float, float]] | None = None) -> "Reconfiguration":
         """From a preset name / robot TOML (or a RobotSpec) and a layout name (see
-        :func:`twin.layouts.resolve_layout`; default: the preset's instrument)."""
+        :func:`models.layout.layout_by_name`; default: the preset's instrument)."""
         spec = preset if isinstance(preset, RobotSpec) else load_spec(preset)
         if buffer_mm is not None:
             spec = spec.with_overrides(buffer_mm=buffer_mm)
         if not isinstance(layout, Layout):
-            layout = resolve_layout(layout or default_layout_name(spec), spec.pitch_mm, fiducial_ids)
+            layout = layout_by_name(layout or default_layout_name(spec), spec.pitch_mm, fiducial_ids)
         return cls(ArrayGeometry(spec, layout, spec.buffer_mm), options, offline=offline)
 
     @property

@@ -9,7 +9,7 @@
 - :mod:`models.layout.neighbours`: neighbour lists (Sayres 2021 Eq. 4)
 - :mod:`models.layout.by_name`: a layout from a name (``sdss-v-fps``, ``hex:N``, a CSV)
 """
-from models.layout.by_name import layout_by_name
+from models.layout.by_name import default_layout_name, layout_by_name
 from models.layout.checks import KINDS
 from models.layout.core import SDSS_V_FPS_CSV, Layout
 from models.layout.csv_io import REQUIRED_COLUMNS
@@ -22,4 +22,4 @@ _nearest_hex_counts = nearest_hex_counts
 
 __all__ = ["KINDS", "REACH_TOL_MM", "REQUIRED_COLUMNS", "SDSS_V_FPS_CSV",
            "SDSS_V_RINGS", "Layout", "hex_axial", "hex_count", "hex_rings", "hex_xy",
-           "layout_by_name", "nearest_hex_counts"]
+           "default_layout_name", "layout_by_name", "nearest_hex_counts"]

@@ -16,6 +16,13 @@ import numpy as np
 from models.errors import LayoutError
 from models.layout.core import Layout
 
+
+def default_layout_name(spec) -> str:
+    """The layout a robot spec plans on by default: ``sdss-v-fps`` for the SDSS-V
+    presets, ``hex:547`` otherwise."""
+    return "sdss-v-fps" if spec.name.startswith("sdss-v") else "hex:547"
+
+
 def layout_by_name(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = ()) -> Layout:
     """Layout from a name: ``sdss-v-fps`` (the real 500-robot instrument), ``sdss-v-547``
     (the paper's all-robot grid), ``hex:N`` (a hex grid of N positions: 7, 19, 37, 61, 91,

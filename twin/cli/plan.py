@@ -87,7 +87,7 @@ def plan(
     acceleration limits (interacting robots share one path parameter), simplified to at most
     --max-points per axis and verified again at buffer - budget."""
     from models.robot import load_spec
-    from twin.layouts import default_layout_name
+    from models.layout import default_layout_name
     from twin.pipeline import PlanOptions, Reconfiguration
 
     t_start = time.perf_counter()

@@ -52,10 +52,10 @@ def model_export(
     """Write the MuJoCo model (MJCF + STL meshes); MuJoCo's own viewer opens it."""
     from models.mjcf import ModelOptions, export_model
     from models.robot import load_spec
-    from twin.layouts import default_layout_name, resolve_layout
+    from models.layout import default_layout_name, layout_by_name
 
     spec = load_spec(preset)
-    lay = resolve_layout(layout or default_layout_name(spec), spec.pitch_mm,
+    lay = layout_by_name(layout or default_layout_name(spec), spec.pitch_mm,
                          parse_ids(fiducials, "--fiducials"))
     path = export_model(spec, lay, out, options=ModelOptions(timestep_s=timestep))
     console.print(f"wrote {path} ({lay.n_robots} robots, {lay.n_fiducials} fiducials)")

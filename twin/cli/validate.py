@@ -125,9 +125,9 @@ def calibrate_buffer(
     geom = load_geometry(geometry if geometry is not None else preset, spec)
     lay = None
     if layout is not None:
-        from twin.layouts import resolve_layout
+        from models.layout import layout_by_name
 
-        lay = resolve_layout(layout, spec.pitch_mm)
+        lay = layout_by_name(layout, spec.pitch_mm)
     errs = (spec.angular_error_deg[0] if alpha_error is None else alpha_error,
             spec.angular_error_deg[1] if beta_error is None else beta_error)
     if out.exists() and not out.is_dir():
