@@ -183,10 +183,7 @@ def record_run(twin: TwinModel, trajectory: Trajectory | None, out_rrd: str | Pa
         if trajectory is None:
             raise RecordError("record_run needs a trajectory or a simulation report")
         sim_report = simulate(twin, trajectory, faults, sim_settings, record=True)
-    rec_data = sim_report.record
-    if rec_data is None or rec_data.times.size == 0:
-        raise RecordError("the simulation report has no sampled record; allowed: a report from "
-                          "simulate(..., record=True)")
+    sim_report.sampled_record(RecordError)
     out = Path(out_rrd)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)

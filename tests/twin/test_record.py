@@ -17,8 +17,7 @@ from rerun.chunk import RrdReader
 from models.trajectory import Trajectory
 from twin.record import RecordError, RecordSettings, record_run
 from twin.sim import simulate
-from tests.twin.builders import centre_robot as _centre, moves_trajectory as _moves
-
+from tests.twin.builders import centre_robot, colliding_run, moves_trajectory
 
 
 def rerun_cli() -> str:
@@ -50,9 +49,8 @@ def rows(chunks, static: bool | None = None) -> int:
 
 @pytest.fixture(scope="module")
 def colliding7(twin7):
-    lay = twin7.layout
-    traj = _moves(lay, {_centre(lay): ([0.0, 6.0], [10.0, 0.0], [170.0, 0.0])})
-    return traj, simulate(twin7, traj)
+    """The centre robot unfolds into its +x neighbour: (trajectory, SimReport)."""
+    return colliding_run(twin7)
 
 
 def test_recording_verifies_and_holds_poses_traces_and_contacts(tmp_path, twin7, colliding7):
@@ -64,7 +62,7 @@ def test_recording_verifies_and_holds_poses_traces_and_contacts(tmp_path, twin7,
     assert v.returncode == 0, v.stdout + v.stderr
     ent = chunks_by_entity(out)
     lay = twin7.layout
-    centre = _centre(lay)
+    centre = centre_robot(lay)
     for rid in lay.robot_ids:
         assert rows(ent[f"/robots/{int(rid)}"], static=True) == 1
         for link in ("body", "alpha", "alpha/beta", "alpha/beta/fibers"):
@@ -123,7 +121,7 @@ def test_logged_transforms_compose_to_the_mujoco_poses(tmp_path, twin7):
 
 def test_record_runs_the_simulation_itself(tmp_path, twin7):
     lay = twin7.layout
-    traj = _moves(lay, {_centre(lay): ([0.0, 1.0], [10.0, 40.0], [170.0, 170.0])})
+    traj = moves_trajectory(lay, {centre_robot(lay): ([0.0, 1.0], [10.0, 40.0], [170.0, 170.0])})
     out = record_run(twin7, traj, tmp_path / "sub" / "a.rrd",
                      settings=RecordSettings(dt_s=0.1, trace_fibers=("metrology",)))
     assert rrd_verify(out, tmp_path / "config").returncode == 0

@@ -1,0 +1,220 @@
+"""Drawing frames: pose and colour the robots of a render model, update the MuJoCo scene,
+draw it offscreen and read the pixels back into (height, width, 3) uint8 arrays.
+
+Robot colours
+-------------
+Each robot's alpha and beta links are coloured by its state
+(:mod:`twin.render.timeline`): waiting (the links' own colours), moving (blue), arrived
+(green) and in contact (red), the alpha arm in a darker shade (:data:`ALPHA_SHADE`).
+
+Lean rendering (default)
+------------------------
+The lean settings turn off multisampling, shadows, reflections, skybox, haze, fog and
+post processing, hide the fiber sites on the wide cameras (a fiber is 0.12 mm: below one
+pixel there), and draw the re-meshed render model (:func:`twin.render.camera.render_model`).
+``lean=False`` renders the twin's model as it is, with MuJoCo's default quality.
+
+Shapes: n robots (layout order); angles (n, 2) deg (alpha, beta); states (n,) state
+codes; world points mm; pixel coordinates (column, row) from the top-left corner.
+"""
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from models.mjcf import TwinModel
+from twin.render.backend import GL_BACKENDS, RenderError, gl_context_class, require_backend
+from twin.render.camera import focal_px, render_model
+from twin.render.settings import RenderSettings
+from twin.render.timeline import ARRIVED, CONTACT, MOVING, STATE_NAMES, WAITING
+
+#: Beta-arm colour of each state (None: the link's own material colour).
+STATE_RGBA = {WAITING: None, MOVING: (0.15, 0.5, 1.0, 1.0), ARRIVED: (0.2, 0.8, 0.3, 1.0),
+              CONTACT: (1.0, 0.08, 0.05, 1.0)}
+#: The alpha arm takes the state colour times this (a darker shade of it).
+ALPHA_SHADE = 0.6
+#: Scene flags turned off by the lean settings.
+LEAN_OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX", "mjRND_HAZE", "mjRND_FOG",
+                  "mjRND_POST_PROCESSING")
+
+
+def state_palette(model: mujoco.MjModel, index) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The geoms coloured by state and their colours.
+
+    Returns
+    -------
+    geoms (g,) : the visual geoms of every alpha and beta body (beta first);
+    geom_robot (g,) : the robot (layout index) of each;
+    palette (g, 4 states, 4) float32 RGBA : each geom's colour in each state (its own
+    material or geom colour when WAITING).
+    """
+    n = index.n_robots
+    visual = ~index.geom_collision
+    gbody = np.asarray(model.geom_bodyid)
+    link_geoms = []
+    for bodies, shade in ((index.beta_body, 1.0), (index.alpha_body, ALPHA_SHADE)):
+        robot_of = np.full(model.nbody, -1, dtype=np.int64)
+        robot_of[bodies] = np.arange(n)
+        g = np.flatnonzero(visual & (robot_of[gbody] >= 0))
+        link_geoms.append((g, robot_of[gbody[g]], shade))
+    geoms = np.concatenate([g for g, _, _ in link_geoms])
+    geom_robot = np.concatenate([r for _, r, _ in link_geoms])
+    default = np.asarray(model.geom_rgba, dtype=np.float32)[geoms].copy()
+    matid = np.asarray(model.geom_matid)[geoms]
+    has_mat = matid >= 0
+    default[has_mat] = np.asarray(model.mat_rgba)[matid[has_mat]]
+    pal = np.empty((geoms.size, len(STATE_NAMES), 4), dtype=np.float32)
+    shades = np.concatenate([np.full(g.size, s) for g, _, s in link_geoms])
+    for state, rgba in STATE_RGBA.items():
+        if rgba is None:
+            pal[:, state] = default
+        else:
+            c = np.asarray(rgba, dtype=np.float32)
+            pal[:, state, :3] = c[:3] * shades[:, None]
+            pal[:, state, 3] = c[3]
+    return geoms, geom_robot, pal
+
+
+class FrameRenderer:
+    """Draws frames of one grid with one camera into numpy arrays.
+
+    Parameters
+    ----------
+    twin : TwinModel (not modified; frames come from a render copy,
+        :func:`twin.render.camera.render_model`)
+    settings : RenderSettings
+
+    Use as a context manager (or call :meth:`close`): it owns a GL context.
+    """
+
+    def __init__(self, twin: TwinModel, settings: RenderSettings | None = None) -> None:
+        self._gl = None
+        self._con = None
+        self.settings = settings = settings or RenderSettings()
+        self.backend = require_backend()
+        self.twin = render_model(twin, settings)
+        m = self.model = self.twin.model
+        self.data = mujoco.MjData(m)
+        idx = self.twin.index
+        self.n_robots = idx.n_robots
+        self._qpos = idx.qpos_adr.ravel()
+        self._geoms, self._geom_robot, self._palette = state_palette(m, idx)
+        self._rows = np.arange(self._geoms.size)
+        self.states = np.zeros(self.n_robots, dtype=np.int8)
+        self.set_states(self.states)
+        # scene
+        self.option = mujoco.MjvOption()
+        if settings.lean and settings.wide:
+            self.option.sitegroup[:] = 0
+        self.camera = mujoco.MjvCamera()
+        self.camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
+        self.camera.fixedcamid = int(idx.camera[settings.camera])
+        self.scene = mujoco.MjvScene(m, maxgeom=int(m.ngeom + m.nsite + 64))
+        if settings.lean:
+            for flag in LEAN_OFF_FLAGS:
+                if hasattr(mujoco.mjtRndFlag, flag):
+                    self.scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
+        # GL
+        gl_cls = gl_context_class(self.backend)
+        w, h = settings.width, settings.height
+        try:
+            self._gl = gl_cls(w, h)
+            self._gl.make_current()
+            self._con = mujoco.MjrContext(m, mujoco.mjtFontScale.mjFONTSCALE_100)
+            mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._con)
+        except Exception as exc:  # noqa: BLE001 - any GL failure is a render error
+            self.close()
+            raise RenderError(f"MUJOCO_GL={self.backend!r}: cannot create a {w}x{h} offscreen "
+                              f"context ({type(exc).__name__}: {exc}); allowed: "
+                              f"{', '.join(GL_BACKENDS)} with Mesa installed") from None
+        self._rect = mujoco.MjrRect(0, 0, w, h)
+        self._buf = np.empty((h, w, 3), dtype=np.uint8)
+        self.set_angles(np.tile(np.asarray(twin.spec.fold_deg, float), (self.n_robots, 1)))
+
+    # -- state ---------------------------------------------------------------------
+    def set_angles(self, angles_deg: np.ndarray) -> None:
+        """Pose every robot at (n, 2) deg (layout robot order); kinematics only."""
+        a = np.asarray(angles_deg, dtype=np.float64).reshape(self.n_robots, 2)
+        self.data.qpos[self._qpos] = np.radians(a).ravel()
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
+
+    def set_states(self, states: np.ndarray) -> None:
+        """Colour the robots by (n,) state codes (WAITING, MOVING, ARRIVED, CONTACT)."""
+        s = np.asarray(states, dtype=np.int64).reshape(self.n_robots)
+        self.states = s.astype(np.int8)
+        self.model.geom_rgba[self._geoms] = self._palette[self._rows, s[self._geom_robot]]
+
+    # -- drawing -------------------------------------------------------------------
+    def render(self, angles_deg: np.ndarray | None = None, states: np.ndarray | None = None,
+               out: np.ndarray | None = None) -> np.ndarray:
+        """One frame, (height, width, 3) uint8, top row first. Poses / colours the robots
+        first when ``angles_deg`` (n, 2) / ``states`` (n,) are given."""
+        if self._con is None:
+            raise RenderError("render() after close(); allowed: a renderer that is open")
+        if angles_deg is not None:
+            self.set_angles(angles_deg)
+        if states is not None:
+            self.set_states(states)
+        self._gl.make_current()
+        mujoco.mjv_updateScene(self.model, self.data, self.option, None, self.camera,
+                               mujoco.mjtCatBit.mjCAT_ALL, self.scene)
+        mujoco.mjr_render(self._rect, self.scene, self._con)
+        mujoco.mjr_readPixels(self._buf, None, self._rect, self._con)
+        if out is None:
+            out = np.empty_like(self._buf)
+        np.copyto(out, self._buf[::-1])
+        return out
+
+    def project(self, xyz: np.ndarray) -> np.ndarray:
+        """Pixel coordinates (k, 2) as (column, row) of world points (k, 3) mm in the
+        current camera (rows from the top); points behind the camera give NaN."""
+        d = self.data
+        c = self.camera.fixedcamid
+        rel = np.asarray(xyz, float).reshape(-1, 3) - d.cam_xpos[c]
+        cam = rel @ d.cam_xmat[c].reshape(3, 3)  # camera axes: x right, y up, -z forward
+        w, h = self.settings.width, self.settings.height
+        f = focal_px(self.model, c, h)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            depth = -cam[:, 2]
+            col = w / 2.0 + f * cam[:, 0] / depth
+            row = h / 2.0 - f * cam[:, 1] / depth
+        out = np.column_stack([col, row])
+        out[depth <= 0] = np.nan
+        return out
+
+    def close(self) -> None:
+        """Free the GL resources (idempotent)."""
+        if self._con is not None:
+            try:
+                if self._gl is not None:
+                    self._gl.make_current()
+                self._con.free()
+            finally:
+                self._con = None
+        if self._gl is not None:
+            try:
+                self._gl.free()
+            finally:
+                self._gl = None
+
+    def __enter__(self) -> FrameRenderer:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001 - interpreter shutdown
+            pass
+
+
+def render_frame(twin: TwinModel, angles_deg: np.ndarray | None = None,
+                 settings: RenderSettings | None = None,
+                 states: np.ndarray | None = None) -> np.ndarray:
+    """One frame (height, width, 3) uint8 of the grid at ``angles_deg`` (n, 2) deg
+    (default: the spec's fold), robots coloured by ``states`` (n,) (default: waiting)."""
+    with FrameRenderer(twin, settings) as fr:
+        return fr.render(angles_deg, states)

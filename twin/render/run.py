@@ -1,0 +1,77 @@
+"""A whole run to video: simulate (unless given the report), build the frame timeline,
+draw every frame and encode it to MP4, timing the drawing and the encoding.
+
+Frames are (height, width, 3) uint8; times are seconds (simulated time for the timeline,
+wall time for the report's timings).
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from models.mjcf import TwinModel
+from models.trajectory import Trajectory
+from twin.render.backend import RenderError, require_backend
+from twin.render.frames import FrameRenderer
+from twin.render.report import RenderReport
+from twin.render.settings import RenderSettings
+from twin.render.timeline import frame_timeline
+from twin.render.video import Mp4Writer
+from twin.sim import SimReport, SimSettings, simulate
+
+#: ``progress(frames_done, frames_total)``.
+Progress = Callable[[int, int], None]
+
+
+def render_run(twin: TwinModel, trajectory: Trajectory | None, out_mp4: str | Path,
+               settings: RenderSettings | None = None, sim_report: SimReport | None = None,
+               faults=(), sim_settings: SimSettings | None = None,
+               progress: Progress | None = None) -> RenderReport:
+    """Render a run to an MP4.
+
+    Parameters
+    ----------
+    twin : TwinModel
+    trajectory : what to simulate (ignored when ``sim_report`` is given).
+    out_mp4 : path of the video (written atomically).
+    settings : RenderSettings
+    sim_report : a finished simulation with its record; default: simulate ``trajectory``
+        with ``faults`` and ``sim_settings`` (:func:`twin.sim.simulate`).
+    progress : called as ``progress(frames_done, frames_total)`` after each frame.
+
+    Returns
+    -------
+    RenderReport
+    """
+    settings = settings or RenderSettings()
+    backend = require_backend()
+    sim_wall = 0.0
+    if sim_report is None:
+        if trajectory is None:
+            raise RenderError("render_run needs a trajectory or a simulation report")
+        t0 = time.perf_counter()
+        sim_report = simulate(twin, trajectory, faults, sim_settings, record=True)
+        sim_wall = time.perf_counter() - t0
+    timeline = frame_timeline(twin, sim_report, settings)
+    t_total = time.perf_counter()
+    t_render = 0.0
+    with FrameRenderer(twin, settings) as fr, \
+            Mp4Writer(out_mp4, settings.width, settings.height, settings.fps, settings.crf,
+                      settings.preset) as writer:
+        frame = np.empty((settings.height, settings.width, 3), dtype=np.uint8)
+        for j in range(timeline.n_frames):
+            t0 = time.perf_counter()
+            fr.render(timeline.angles[j], timeline.states[j], out=frame)
+            t_render += time.perf_counter() - t0
+            writer.write(frame)
+            if progress is not None:
+                progress(j + 1, timeline.n_frames)
+        frames = writer.frames
+    total = time.perf_counter() - t_total
+    return RenderReport(Path(out_mp4), frames, frames / settings.fps, float(sim_report.sim_s),
+                        settings.width, settings.height, float(settings.fps),
+                        float(settings.speedup), settings.camera, backend, t_render, total,
+                        sim_wall, timeline.state_counts(), sim_report)

@@ -1,0 +1,127 @@
+"""The controller and the tracking error: what each servo is told, and how far each robot
+is from its nominal trajectory.
+
+Each robot's two position servos (:mod:`models.mjcf`) follow the trajectory: every
+physics step the actuator target is the commanded angle at the end of the step plus a
+velocity feed-forward ``(kv / kp) * d(angle)/dt``, so the servo tracks ramps without the
+steady lag of a pure PD loop. Robots the trajectory does not mention hold the spec's
+fold configuration; faults (:mod:`twin.sim.faults`) change what a robot is commanded.
+
+The tracking error is the true joint angle minus the nominal trajectory (without
+faults), per robot and axis.
+
+Shapes: n robots (layout order), T times; angles (T, n, 2) deg (alpha, beta); servo
+targets (T, 2n) rad in the model's actuator order (robot-major). Times in s.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from models.errors import TrajectoryError
+from models.kinematics import forward
+from models.mjcf import TwinModel
+from models.trajectory import Trajectory
+from twin.sim.faults import fault_effects
+
+
+def feedforward_gains(twin: TwinModel) -> np.ndarray:
+    """(n, 2) velocity feed-forward gain ``kv / kp`` of each servo, s (0 where kp = 0)."""
+    m = twin.model
+    act = twin.index.actuator
+    kp = m.actuator_gainprm[act, 0]
+    kv = -m.actuator_biasprm[act, 2]
+    return np.where(kp > 0, kv / np.where(kp > 0, kp, 1.0), 0.0)
+
+
+class Commands:
+    """The nominal and commanded angles of every robot of ``twin`` along ``trajectory``.
+
+    Parameters
+    ----------
+    twin : TwinModel
+    trajectory : Trajectory; its robot ids must be robots of the twin's layout, once each.
+    faults : iterable of Stuck / Slow / EncoderOffset (:func:`twin.sim.faults.fault_effects`)
+    feedforward : add the velocity feed-forward to the servo targets.
+    """
+
+    def __init__(self, twin: TwinModel, trajectory: Trajectory, faults=(),
+                 feedforward: bool = True) -> None:
+        lay = twin.layout
+        self.n_robots = twin.n_robots
+        self.trajectory = trajectory
+        # trajectory robot -> layout robot index
+        self._traj_index = lay.robot_indices(trajectory.robot_ids) if trajectory.n_robots else \
+            np.empty(0, dtype=np.int64)
+        if len(set(self._traj_index.tolist())) != self._traj_index.size:
+            raise TrajectoryError("trajectory lists a robot twice; allowed: unique robot ids")
+        self.effects = fault_effects(faults, lay)
+        gains = feedforward_gains(twin)
+        self.ff = gains if feedforward else np.zeros_like(gains)
+        self._ff_flat = self.ff.ravel()
+        self._fold = np.asarray(twin.spec.fold_deg, float)
+
+    def nominal(self, times: np.ndarray) -> np.ndarray:
+        """(len(times), n, 2) nominal angles (the trajectory; fold for others), deg."""
+        return self._sample(np.asarray(times, float), warped=False)
+
+    def commanded(self, times: np.ndarray) -> np.ndarray:
+        """(len(times), n, 2) angles the servos are asked to reach (faults applied), deg:
+        true-angle targets, i.e. already corrected for encoder offsets."""
+        return self._sample(np.asarray(times, float), warped=True) - self.effects.offset[None]
+
+    def servo_targets(self, t_grid: np.ndarray, dt: float) -> np.ndarray:
+        """(len(t_grid) - 2, 2n) actuator targets, rad, for the physics steps starting at
+        ``t_grid[:-2]`` (a grid of step ``dt`` s): where to be at the end of the step
+        (``t_grid[1:-1]``), plus the velocity feed-forward over the next step."""
+        cmd = np.radians(self.commanded(t_grid)).reshape(t_grid.size, -1)
+        return cmd[1:-1] + self._ff_flat * (cmd[2:] - cmd[1:-1]) / dt
+
+    def _sample(self, times: np.ndarray, warped: bool) -> np.ndarray:
+        out = np.empty((times.size, self.n_robots, 2))
+        out[:] = self._fold
+        traj = self.trajectory
+        fx = self.effects
+        for j, k in enumerate(self._traj_index):
+            tau = times
+            if warped:
+                tau = np.minimum(times, fx.stuck_at[k]) * fx.warp_scale[k]
+            for ax in range(2):
+                out[:, k, ax] = np.interp(tau, traj.times[ax][j], traj.angles[ax][j])
+        return out
+
+
+class TrackingError:
+    """Running tracking error of n robots over physics steps.
+
+    max_deg (n, 2) : the signed error of largest magnitude so far, deg.
+    sum_sq (n, 2) : sum of squared errors, deg^2.
+    """
+
+    def __init__(self, n_robots: int) -> None:
+        self.max_deg = np.zeros((n_robots, 2))
+        self.sum_sq = np.zeros((n_robots, 2))
+        self._err = np.zeros((n_robots, 2))
+
+    def add(self, angles_deg: np.ndarray, nominal_deg: np.ndarray) -> None:
+        """Account one step: true angles (n, 2) deg against the nominal (n, 2) deg."""
+        err, max_err = self._err, self.max_deg
+        np.subtract(angles_deg, nominal_deg, out=err)
+        big = np.abs(err) > np.abs(max_err)
+        max_err[big] = err[big]
+        self.sum_sq += err * err
+
+    def rms_deg(self, n_steps: int) -> np.ndarray:
+        """(n, 2) root-mean-square error over ``n_steps`` steps, deg."""
+        return np.sqrt(self.sum_sq / n_steps)
+
+
+def fiber_error_mm(twin: TwinModel, angles_deg: np.ndarray, nominal_deg: np.ndarray) -> np.ndarray:
+    """(n,) distance, mm, between the fiber at the true angles (n, 2) deg and at the
+    nominal angles (n, 2) deg (planar kinematics, :func:`models.kinematics.forward`)."""
+    spec = twin.spec
+    base = np.ascontiguousarray(twin.layout.robot_xy, dtype=np.float64)
+    f_true, _ = forward(base, np.ascontiguousarray(angles_deg), spec.alpha_length_mm,
+                        spec.beta_length_mm)
+    f_ref, _ = forward(base, np.ascontiguousarray(nominal_deg), spec.alpha_length_mm,
+                       spec.beta_length_mm)
+    return np.hypot(*(f_true - f_ref).T)

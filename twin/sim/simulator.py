@@ -1,0 +1,185 @@
+"""The driver: step a MuJoCo grid model along a Trajectory and report what happened.
+
+Every physics step the :class:`~twin.sim.control.Commands` give the servo targets, the
+:class:`~twin.sim.control.TrackingError` accounts the true angles against the nominal
+trajectory, the :class:`~twin.sim.contacts.ContactRecorder` keeps the contacts, and every
+``record_dt_s`` the angles are sampled (and a callback runs). The result is a
+:class:`~twin.sim.report.SimReport`.
+
+Units: angles in degrees, times in seconds (simulated, except wall times), lengths in mm.
+Robots in layout order (n robots).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import mujoco
+import numpy as np
+
+from models.errors import TrajectoryError
+from models.mjcf import TwinModel, collect_mujoco_warnings
+from models.trajectory import Trajectory
+from twin.sim.contacts import ContactRecorder
+from twin.sim.control import Commands, TrackingError, fiber_error_mm
+from twin.sim.report import SimRecord, SimReport
+
+#: ``callback(t, model, data)``, t in simulated seconds.
+Callback = Callable[[float, mujoco.MjModel, mujoco.MjData], None]
+
+
+@dataclass(frozen=True)
+class SimSettings:
+    """How to run a simulation.
+
+    settle_s : time simulated after the trajectory's end, s.
+    duration_s : total simulated time (default trajectory duration + settle_s), s.
+    record_dt_s : interval of the recorded angles / reference (and of the callback), s.
+    chunk_s : commands are computed this many seconds at a time (memory bound), s.
+    reached_tol_deg : a robot whose final |error| on both axes is below this "reached", deg.
+    feedforward : add the velocity feed-forward to the servo target.
+    """
+
+    settle_s: float = 0.5
+    duration_s: float | None = None
+    record_dt_s: float = 0.02
+    chunk_s: float = 1.0
+    reached_tol_deg: float = 0.05
+    feedforward: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("settle_s", "record_dt_s", "chunk_s", "reached_tol_deg"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise TrajectoryError(f"field '{name}' = {v!r}; allowed: a finite number >= 0")
+        if self.duration_s is not None and not (math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise TrajectoryError(f"field 'duration_s' = {self.duration_s!r}; allowed: > 0 s")
+
+
+def mujoco_warnings(d: mujoco.MjData) -> dict[str, int]:
+    """MuJoCo warnings raised so far: name -> count (empty when none)."""
+    out = {}
+    for w in range(int(mujoco.mjtWarning.mjNWARNING)):
+        count = int(d.warning[w].number)
+        if count:
+            out[mujoco.mjtWarning(w).name] = count
+    return out
+
+
+def _as_slice(ids: np.ndarray):
+    """A slice when ids are consecutive (faster indexing), else the array."""
+    if ids.size and np.all(np.diff(ids) == 1):
+        return slice(int(ids[0]), int(ids[-1]) + 1)
+    return ids
+
+
+class Simulator:
+    """Runs one trajectory on a :class:`models.mjcf.TwinModel`.
+
+    Parameters
+    ----------
+    twin : TwinModel
+    trajectory : Trajectory; its robot ids must be robots of the twin's layout. Robots of
+        the layout that it does not mention hold the spec's fold configuration.
+    faults : iterable of Stuck / Slow / EncoderOffset
+    settings : SimSettings
+
+    ``data`` is the live MjData (for renderers); :meth:`run` steps to the end and
+    returns a :class:`SimReport`, calling ``callback(t, model, data)`` every
+    ``record_dt_s`` (at t = 0 too).
+    """
+
+    def __init__(self, twin: TwinModel, trajectory: Trajectory, faults=(),
+                 settings: SimSettings | None = None) -> None:
+        self.twin = twin
+        self.trajectory = trajectory
+        self.settings = settings or SimSettings()
+        self.faults = list(faults)
+        self.commands = Commands(twin, trajectory, self.faults, self.settings.feedforward)
+        m = twin.model
+        self.data = mujoco.MjData(m)
+        self.dt = float(m.opt.timestep)
+        sim_s = self.settings.duration_s if self.settings.duration_s is not None \
+            else trajectory.duration + self.settings.settle_s
+        self.n_steps = max(1, int(math.ceil(sim_s / self.dt - 1e-9)))
+        self.sim_s = self.n_steps * self.dt
+        idx = twin.index
+        self._act_flat = _as_slice(idx.actuator.ravel())
+        self._qpos_flat = _as_slice(idx.qpos_adr.ravel())
+
+    def nominal(self, times: np.ndarray) -> np.ndarray:
+        """(len(times), n, 2) nominal angles (the trajectory; fold for others), deg."""
+        return self.commands.nominal(times)
+
+    def commanded(self, times: np.ndarray) -> np.ndarray:
+        """(len(times), n, 2) angles the servos are asked to reach (faults applied), deg:
+        true-angle targets, i.e. already corrected for encoder offsets."""
+        return self.commands.commanded(times)
+
+    def reset(self) -> None:
+        """Put every robot at its commanded start, at rest."""
+        start = self.commanded(np.zeros(1))[0]
+        self.twin.set_angles(self.data, start, hold=True)
+        self.data.time = 0.0
+
+    def run(self, callback: Callback | None = None, record: bool = True) -> SimReport:
+        """Simulate; returns the report (with the sampled record if ``record``)."""
+        m, d, twin = self.twin.model, self.data, self.twin
+        n = twin.n_robots
+        s = self.settings
+        self.reset()
+        rec_every = max(1, int(round(s.record_dt_s / self.dt))) if s.record_dt_s > 0 else 0
+        chunk = max(1, int(round(s.chunk_s / self.dt)))
+        rec_t, rec_q, rec_ref = [], [], []
+        tracking = TrackingError(n)
+        contacts = ContactRecorder(twin.index)
+        act, qadr = self._act_flat, self._qpos_flat
+        wall0 = time.perf_counter()
+        with collect_mujoco_warnings() as messages:
+            step = 0
+            while step < self.n_steps:
+                k1 = min(self.n_steps, step + chunk)
+                t_grid = np.arange(step, k1 + 2) * self.dt
+                ctrl = self.commands.servo_targets(t_grid, self.dt)
+                nominal = self.nominal(t_grid[:-2])
+                for j in range(k1 - step):
+                    q = np.degrees(d.qpos[qadr]).reshape(n, 2)
+                    tracking.add(q, nominal[j])
+                    if rec_every and (step + j) % rec_every == 0:
+                        rec_t.append(d.time)
+                        rec_q.append(q.copy())
+                        rec_ref.append(nominal[j].copy())
+                        if callback is not None:
+                            callback(float(d.time), m, d)
+                    d.ctrl[act] = ctrl[j]
+                    t_now = d.time
+                    mujoco.mj_step(m, d)
+                    if d.ncon:  # contacts of the state at t_now
+                        contacts.add(d, t_now)
+                step = k1
+        wall = time.perf_counter() - wall0
+        # final state against the nominal end
+        q_end = twin.angles(d)
+        ref_end = self.nominal(np.array([d.time]))[0]
+        final = q_end - ref_end
+        record_obj = None
+        if record and rec_t:
+            angles = np.array(rec_q)
+            record_obj = SimRecord(np.array(rec_t), angles,
+                                   angles + self.commands.effects.offset[None], np.array(rec_ref))
+        return SimReport(
+            robot_ids=twin.index.robot_ids.copy(), sim_s=float(d.time),
+            trajectory_s=self.trajectory.duration, timestep_s=self.dt, n_steps=self.n_steps,
+            wall_s=wall, max_error_deg=tracking.max_deg, rms_error_deg=tracking.rms_deg(self.n_steps),
+            final_error_deg=final, final_fiber_error_mm=fiber_error_mm(twin, q_end, ref_end),
+            reached=np.all(np.abs(final) <= s.reached_tol_deg, axis=1),
+            contacts=contacts.log(), faults=[f.describe() for f in self.faults],
+            warnings=mujoco_warnings(d), warning_messages=list(messages), record=record_obj)
+
+
+def simulate(twin: TwinModel, trajectory: Trajectory, faults=(), settings: SimSettings | None = None,
+             callback: Callback | None = None, record: bool = True) -> SimReport:
+    """Simulate ``trajectory`` on ``twin`` (see :class:`Simulator`)."""
+    return Simulator(twin, trajectory, faults, settings).run(callback, record)
