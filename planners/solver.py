@@ -27,10 +27,11 @@ changed, recruited neighbours included), ``n_search_failed_groups`` (over all ro
 ``n_replace_groups`` (groups resolved by replacing a target), ``search_s`` (wall time of
 the searches), ``n_continued_groups`` / ``n_continued_robots`` (groups the final plan
 resolves by continuation), ``continuation_s``.
+
+Units: angles in deg, lengths in mm, plan time in planner steps (``step_s`` s each).
 """
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from dataclasses import replace as _with
 
@@ -41,7 +42,7 @@ from models.errors import SpecError, TargetError, UnknownRobotError
 from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
 from planners.continuation import continue_groups
 from planners.resolve_search import PathSet, SearchResolveSettings, resolve_groups
-from planners.stepwise import ANGLE_EPS, max_displacement, run_stepwise
+from planners.stepwise import ANGLE_EPS, StepRun, max_displacement, run_array
 from planners.targets import check_targets, random_targets
 
 ALGORITHMS = ("greedy", "markov", "roadmap")
@@ -106,52 +107,19 @@ class PlannerSettings:
         return self.algorithm == "greedy"
 
 
-@dataclass
-class StepRun:
-    """Raw outcome of one kernel call."""
-
-    final: np.ndarray        # (n, 2) deg
-    n_steps: int
-    ev_robot: np.ndarray
-    ev_step: np.ndarray
-    ev_angles: np.ndarray
-    seconds: float
-
-
 def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
              settings: PlannerSettings, seed: int) -> StepRun:
-    """One planner run: the stepwise kernel (growing its breakpoint buffers if they
-    overflow), or for ``algorithm="roadmap"`` one prioritized roadmap pass."""
+    """One planner run: the stepwise kernel (:func:`planners.stepwise.run_array`), or for
+    ``algorithm="roadmap"`` one prioritized roadmap pass."""
     spec = geom.spec
-    n = geom.n_robots
     md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
                           settings.step_deg)
     if settings.algorithm == "roadmap":
         return _run_roadmap(geom, start, dest, movable, settings, md, seed)
-    greed = np.full(n, 1.0 if settings.greedy else settings.greed)
-    phobia = 0.0 if settings.greedy else settings.phobia
-    limits = np.array([*spec.alpha_limits_deg, *spec.beta_limits_deg], dtype=np.float64)
-    # GC paths need a few dozen breakpoints per robot; MC random walks about one per step
-    cap = 64 * n + 1024 if settings.greedy else n * 2048
-    start = np.ascontiguousarray(start, dtype=np.float64)
-    dest = np.ascontiguousarray(dest, dtype=np.float64)
-    while True:
-        ev_robot = np.empty(cap, dtype=np.int64)
-        ev_step = np.empty(cap, dtype=np.int64)
-        ev_angles = np.empty((cap, 2))
-        final = np.empty((n, 2))
-        t0 = time.perf_counter()
-        n_ev, n_steps = run_stepwise(
-            geom.base_xy, start, dest, movable, geom.nbr_ptr, geom.nbr_idx, geom.nbr_dist,
-            geom.fid_ptr, geom.fid_idx, geom.fid_xy, geom.fiducial_buffer,
-            spec.alpha_length_mm, spec.segment_start_mm, geom.seg_end, geom.buffer, limits,
-            settings.step_deg, settings.steps_limit, md, greed, phobia, seed,
-            ev_robot, ev_step, ev_angles, final)
-        seconds = time.perf_counter() - t0
-        if n_ev >= 0:
-            return StepRun(final, int(n_steps), ev_robot[:n_ev], ev_step[:n_ev], ev_angles[:n_ev],
-                           seconds)
-        cap *= 4
+    return run_array(geom, start, dest, movable, step_deg=settings.step_deg,
+                     max_steps=settings.steps_limit, md=md,
+                     greed=1.0 if settings.greedy else settings.greed,
+                     phobia=0.0 if settings.greedy else settings.phobia, seed=seed)
 
 
 def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,

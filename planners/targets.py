@@ -138,33 +138,52 @@ def _draw_targets(geom, rng, fixed, initial, margin_mm, robots) -> np.ndarray:
     return out
 
 
+def check_angles(geom, angles, what: str | None = None) -> np.ndarray:
+    """(n, 2) float64 configurations, deg, after checking shape and joint limits.
+
+    Raises TargetError if ``angles`` is not one (alpha, beta) row per robot, or a value
+    is NaN or outside the spec's limits; the message names the robot, the field and the
+    allowed range. ``what`` names the array in the messages ("start", ...); None: the
+    messages of :func:`check_targets`.
+    """
+    spec = geom.spec
+    a = np.asarray(angles, dtype=np.float64)
+    if a.shape != (geom.n_robots, 2):
+        raise TargetError(f"{what or 'targets'}: shape {a.shape}; allowed: ({geom.n_robots}, 2) "
+                          "(one (alpha, beta) row per robot)")
+    prefix = f"{what}: " if what else ""
+    for axis, col, (lo, hi) in (("alpha", 0, spec.alpha_limits_deg), ("beta", 1, spec.beta_limits_deg)):
+        v = a[:, col]
+        bad = np.flatnonzero(~np.isfinite(v) | (v < lo) | (v > hi))
+        if bad.size:
+            k = int(bad[0])
+            raise TargetError(f"{prefix}robot {int(geom.robot_ids[k])}: field '{axis}' = "
+                              f"{float(v[k])!r}; allowed: [{lo}, {hi}] deg")
+    return a
+
+
+def _first_overlap(clearance: np.ndarray, pairs: np.ndarray):
+    """(first pair whose clearance is <= 0, its overlap mm, how many pairs overlap), or None."""
+    hit = np.flatnonzero(clearance <= 0.0)
+    if hit.size == 0:
+        return None
+    return pairs[hit[0]], float(-clearance[hit[0]]), int(hit.size)
+
+
 def check_targets(geom, targets: np.ndarray, movable: np.ndarray | None = None) -> None:
     """Raise TargetError if targets are NaN, out of range, or collide (Eq. 3).
 
     targets : (n, 2) deg. The message names the robot(s), the field and the allowed range.
     """
-    spec = geom.spec
-    targets = np.asarray(targets, dtype=np.float64)
-    if targets.shape != (geom.n_robots, 2):
-        raise TargetError(f"targets: shape {targets.shape}; allowed: ({geom.n_robots}, 2) "
-                          "(one (alpha, beta) row per robot)")
-    for axis, col, (lo, hi) in (("alpha", 0, spec.alpha_limits_deg), ("beta", 1, spec.beta_limits_deg)):
-        v = targets[:, col]
-        bad = np.flatnonzero(~np.isfinite(v) | (v < lo) | (v > hi))
-        if bad.size:
-            k = int(bad[0])
-            raise TargetError(f"robot {int(geom.robot_ids[k])}: field '{axis}' = {float(v[k])!r}; "
-                              f"allowed: [{lo}, {hi}] deg")
-    d = geom.pair_clearance(targets)
-    hit = np.flatnonzero(d <= 0.0)
-    if hit.size:
-        i, j = geom.pairs[hit[0]]
+    targets = check_angles(geom, targets)
+    bad = _first_overlap(geom.pair_clearance(targets), geom.pairs)
+    if bad is not None:
+        (i, j), overlap, count = bad
         raise TargetError(f"robots {int(geom.robot_ids[i])} and {int(geom.robot_ids[j])}: targets "
-                          f"collide (capsules overlap by {-d[hit[0]]:.3f} mm; allowed: clearance > 0 "
-                          f"at buffer {geom.buffer[i]:.3f} mm); {hit.size} colliding pair(s) in all")
-    fd = geom.fiducial_clearance(targets)
-    hit = np.flatnonzero(fd <= 0.0)
-    if hit.size:
-        i, f = geom.robot_fid_pairs[hit[0]]
+                          f"collide (capsules overlap by {overlap:.3f} mm; allowed: clearance > 0 "
+                          f"at buffer {geom.buffer[i]:.3f} mm); {count} colliding pair(s) in all")
+    bad = _first_overlap(geom.fiducial_clearance(targets), geom.robot_fid_pairs)
+    if bad is not None:
+        (i, f), overlap, _ = bad
         raise TargetError(f"robot {int(geom.robot_ids[i])}: target collides with fiducial "
-                          f"{int(geom.fiducial_ids[f])} (overlap {-fd[hit[0]]:.3f} mm)")
+                          f"{int(geom.fiducial_ids[f])} (overlap {overlap:.3f} mm)")

@@ -171,11 +171,19 @@ def test_colliding_and_nan_targets_are_rejected_with_robot_names():
 @pytest.mark.parametrize("kwargs,field", [
     ({"algorithm": "astar"}, "algorithm"), ({"direction": "sideways"}, "direction"),
     ({"step_deg": 0.0}, "step_deg"), ({"greed": 1.5}, "greed"), ({"phobia": -0.1}, "phobia"),
-    ({"max_steps": 0}, "max_steps"),
+    ({"max_steps": 0}, "max_steps"), ({"max_rounds": -1}, "max_rounds"),
+    ({"continuation": -1}, "continuation"), ({"resolve": "magic"}, "resolve"),
 ])
 def test_settings_are_checked(kwargs, field):
     with pytest.raises(SpecError, match=f"'{field}'.*allowed"):
         PlannerSettings(**kwargs)
+
+
+def test_settings_errors_list_what_is_allowed():
+    with pytest.raises(SpecError, match="field 'resolve'.*allowed: search, replace"):
+        PlannerSettings(resolve="magic")
+    with pytest.raises(SpecError, match="field 'continuation'.*allowed: >= 0"):
+        PlannerSettings(continuation=-1)
 
 
 def test_deadlocked_groups_follow_the_neighbour_graph():

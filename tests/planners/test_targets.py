@@ -9,7 +9,7 @@ from models.errors import TargetError
 from models.kinematics import forward
 from models.layout import Layout
 from models.robot import load_spec
-from planners.targets import check_targets, random_targets
+from planners.targets import check_angles, check_targets, random_targets
 from tests.planners.conftest import make_geom
 
 
@@ -60,3 +60,19 @@ def test_target_checks_name_robot_field_and_range():
         check_targets(geom, bad)
     with pytest.raises(TargetError, match="shape"):
         check_targets(geom, good[:3])
+
+
+def test_angle_checks_name_the_array_when_asked():
+    geom = make_geom(7, 2.0)
+    good = np.tile([10.0, 170.0], (7, 1))
+    out = check_angles(geom, good.tolist(), "start")
+    assert out.dtype == np.float64 and out.shape == (7, 2)
+    bad = good.copy()
+    bad[4, 1] = np.nan
+    lo, hi = geom.spec.beta_limits_deg
+    with pytest.raises(TargetError, match=rf"^start: robot 4: field 'beta' = nan; allowed: \[{lo}, {hi}\] deg"):
+        check_angles(geom, bad, "start")
+    with pytest.raises(TargetError, match=r"^robot 4: field 'beta'"):
+        check_angles(geom, bad)
+    with pytest.raises(TargetError, match=r"^start: shape \(2, 2\)"):
+        check_angles(geom, good[:2], "start")

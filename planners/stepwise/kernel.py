@@ -1,4 +1,4 @@
-"""The stepwise Greedy (GC) and Markov (MC) planners of Sayres 2021 Sect. 4, numba.
+"""The stepwise Greedy (GC) and Markov (MC) planners of Sayres 2021 Sect. 4: the numba kernel.
 
 One call of :func:`run_stepwise` moves every robot from ``start`` towards ``dest`` in
 steps of at most ``step_deg`` per axis, robot by robot in index order (Appendix A), and
@@ -25,8 +25,9 @@ D > 2 sigma + MD at every step state (each mover is checked against its neighbou
 latest states, and the pair's state after a step is the one checked last). Within a step
 a point at distance r along the beta arm moves at most (l_alpha + 2 r) d (radians), so
 the pair distance cannot drop by more than (l_alpha + 2 r_max) d below the mean of its
-two end values, which MD covers whenever r_max <= l_beta + l_alpha / 2. ``max_disp``
-takes the larger of Eq. 7 and that bound, so the guarantee holds for any segment.
+two end values, which MD covers whenever r_max <= l_beta + l_alpha / 2.
+:func:`planners.stepwise.moves.max_displacement` takes the larger of Eq. 7 and that
+bound, so the guarantee holds for any segment.
 
 Speed (see benchmarks/RESULTS.md): no arrays are created inside the step loop and the
 helpers are closures (numba inlines them without reference counting); a robot whose best
@@ -41,6 +42,9 @@ threshold is *free* for a computed number of steps: every candidate passes, so i
 choice is drawn in one go from the sequential rule's closed form (``mc_pick_free``)
 and only the chosen candidate's geometry is computed; about 97 % of MC visits are free
 on the SDSS-V layout. Random numbers come from an inline splitmix64.
+
+Units: angles in deg, lengths in mm, time in steps; array shapes in :func:`run_stepwise`.
+:mod:`planners.stepwise.run` calls the kernel on an array geometry.
 """
 from __future__ import annotations
 
@@ -51,68 +55,12 @@ from numba import njit
 
 from models.geometry2d import (point_segment_distance, segment_closest_sq, segment_distance,
                                segments_within)
+from planners.stepwise.moves import ANGLE_EPS, DEG, _reach_from_cos, _rot, _sign, _toward
 
-DEG = math.pi / 180.0
-#: Angles closer than this are the same angle (deg).
-ANGLE_EPS = 1e-9
 #: MC energy (Eq. 9) counts neighbours whose capsules may be nearer than this (mm).
 ENERGY_CUTOFF_MM = 12.0
 #: Steps for which a robot's short list of near neighbours stays valid.
 NEAR_HORIZON = 32
-
-
-def max_displacement(l_alpha: float, l_beta: float, seg_end: float, step_deg: float) -> float:
-    """MD of Eq. 7, raised if needed to bound a step's motion of the whole segment, mm."""
-    eq7 = (l_alpha + l_beta) * math.sin(2.0 * step_deg * DEG)
-    bound = (l_alpha + 2.0 * seg_end) * step_deg * DEG
-    return max(eq7, bound)
-
-
-# --- small scalar helpers (inlined; scalars only, no array arguments) ----------------
-@njit(cache=True, inline="always")
-def _rot(c, s, k, cd, sd, c2d, s2d):
-    """(cos, sin) of an angle rotated by k steps, k in -2..2."""
-    if k == 0:
-        return c, s
-    if k == 1:
-        return c * cd - s * sd, s * cd + c * sd
-    if k == -1:
-        return c * cd + s * sd, s * cd - c * sd
-    if k == 2:
-        return c * c2d - s * s2d, s * c2d + c * s2d
-    return c * c2d + s * s2d, s * c2d - c * s2d
-
-
-@njit(cache=True, inline="always")
-def _toward(cur, dest, k, step, lo, hi):
-    """Angle after a k-step move (k in -1, 0, 1) clipped to limits and to not overshoot."""
-    nxt = cur + k * step
-    if nxt < lo:
-        nxt = lo
-    elif nxt > hi:
-        nxt = hi
-    if cur > dest and nxt <= dest:
-        nxt = dest
-    elif cur < dest and nxt >= dest:
-        nxt = dest
-    return nxt
-
-
-@njit(cache=True, inline="always")
-def _sign(x):
-    if x > ANGLE_EPS:
-        return 1
-    if x < -ANGLE_EPS:
-        return -1
-    return 0
-
-
-@njit(cache=True, inline="always")
-def _reach_from_cos(l_alpha, s0, s1, cos_b):
-    """Largest base distance of any point of the beta segment, from cos(beta), mm."""
-    r1 = l_alpha * l_alpha + s1 * s1 + 2.0 * l_alpha * s1 * cos_b
-    r0 = l_alpha * l_alpha + s0 * s0 + 2.0 * l_alpha * s0 * cos_b
-    return math.sqrt(max(r0, r1, 0.0))
 
 
 @njit(cache=True)
@@ -196,30 +144,6 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
     cost = np.empty(9)
     score_of = np.empty(9)   # MC: each candidate's score (cost or linearised energy)
     order = np.empty(9, dtype=np.int64)
-    n_moves = 1
-    n_left = 0
-    for i in range(n):
-        cur[i, 0] = start[i, 0]
-        cur[i, 1] = start[i, 1]
-        a = cur[i, 0] * DEG
-        b = cur[i, 1] * DEG
-        trig[i, 0] = math.cos(a)
-        trig[i, 1] = math.sin(a)
-        trig[i, 2] = math.cos(a + b)
-        trig[i, 3] = math.sin(a + b)
-        trig[i, 4] = math.cos(b)
-        trig[i, 5] = math.sin(b)
-        ex = base_xy[i, 0] + l_alpha * trig[i, 0]
-        ey = base_xy[i, 1] + l_alpha * trig[i, 1]
-        seg[i, 0] = ex + s0 * trig[i, 2]
-        seg[i, 1] = ey + s0 * trig[i, 3]
-        seg[i, 2] = ex + seg_end[i] * trig[i, 2]
-        seg[i, 3] = ey + seg_end[i] * trig[i, 3]
-        rho[i] = _reach_from_cos(l_alpha, s0, seg_end[i], trig[i, 4])
-        home[i] = abs(cur[i, 0] - dest[i, 0]) < ANGLE_EPS and abs(cur[i, 1] - dest[i, 1]) < ANGLE_EPS
-        if movable[i] and not home[i]:
-            n_left += 1
-
 
     def uniform():
         """A uniform double in [0, 1): splitmix64 (Steele, Lea & Flood 2014) on rng_state.
@@ -246,7 +170,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         iff one of its k members passed its coin; members of a class are exchangeable.)
         So one draw suffices: the rank p of the first success of i.i.d. g-coins down the
         sorted scores, then a uniform member of the class holding rank p.
-        tests/planners/test_stepwise.py checks the kernel against the sequential rule.
+        tests/planners/test_stepwise_kernel.py checks the kernel against the sequential rule.
         """
         u = uniform()
         f = 1.0 - g
@@ -286,6 +210,27 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                 m -= 1
         return -1
 
+    def cand_trig(q, na, nb):
+        """Candidate q's trig functions (cand[q, 2:8]) of (na, nb) deg, computed afresh."""
+        a = na * DEG
+        b = nb * DEG
+        cand[q, 2] = math.cos(a)
+        cand[q, 3] = math.sin(a)
+        cand[q, 4] = math.cos(a + b)
+        cand[q, 5] = math.sin(a + b)
+        cand[q, 6] = math.cos(b)
+        cand[q, 7] = math.sin(b)
+
+    def cand_segment(q, bx, by, s1):
+        """Candidate q's beta segment (cand[q, 8:12]) and reach (cand[q, 12]) from its trig."""
+        ex = bx + l_alpha * cand[q, 2]
+        ey = by + l_alpha * cand[q, 3]
+        cand[q, 8] = ex + s0 * cand[q, 4]
+        cand[q, 9] = ey + s0 * cand[q, 5]
+        cand[q, 10] = ex + s1 * cand[q, 4]
+        cand[q, 11] = ey + s1 * cand[q, 5]
+        cand[q, 12] = _reach_from_cos(l_alpha, s0, s1, cand[q, 6])
+
     def try_cand(q, i, ca, cb, bx, by, s1, margin, step, check=True):
         """Fill candidate q's state; return q if it passes the step rule, else -1.
 
@@ -298,14 +243,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         exact = (ka != 0 and abs(abs(na - ca) - step_deg) > ANGLE_EPS) or \
                 (kb != 0 and abs(abs(nb - cb) - step_deg) > ANGLE_EPS)
         if exact:
-            a = na * DEG
-            b = nb * DEG
-            cand[q, 2] = math.cos(a)
-            cand[q, 3] = math.sin(a)
-            cand[q, 4] = math.cos(a + b)
-            cand[q, 5] = math.sin(a + b)
-            cand[q, 6] = math.cos(b)
-            cand[q, 7] = math.sin(b)
+            cand_trig(q, na, nb)
         else:
             c, s = _rot(trig[i, 0], trig[i, 1], ka, cd, sd, c2d, s2d)
             cand[q, 2] = c
@@ -316,18 +254,12 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
             c, s = _rot(trig[i, 4], trig[i, 5], kb, cd, sd, c2d, s2d)
             cand[q, 6] = c
             cand[q, 7] = s
-        ex = bx + l_alpha * cand[q, 2]
-        ey = by + l_alpha * cand[q, 3]
-        x0 = ex + s0 * cand[q, 4]
-        y0 = ey + s0 * cand[q, 5]
-        x1 = ex + s1 * cand[q, 4]
-        y1 = ey + s1 * cand[q, 5]
-        cand[q, 8] = x0
-        cand[q, 9] = y0
-        cand[q, 10] = x1
-        cand[q, 11] = y1
-        rho_i = _reach_from_cos(l_alpha, s0, s1, cand[q, 6])
-        cand[q, 12] = rho_i
+        cand_segment(q, bx, by, s1)
+        x0 = cand[q, 8]
+        y0 = cand[q, 9]
+        x1 = cand[q, 10]
+        y1 = cand[q, 11]
+        rho_i = cand[q, 12]
         if not check:
             return q
         bi = buffer[i]
@@ -359,6 +291,36 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                     hit = True
                     break
         return -1 if hit else q
+
+    def refresh_near(i, step):
+        """Rebuild robot i's short list of the neighbours that can matter.
+
+        A neighbour is left out when its base-disk bound |b_i - b_j| - rho_i - rho_j
+        exceeds what matters (the step-rule threshold; for MC also the energy cutoff) by
+        more than NEAR_HORIZON * free_step. The bound shrinks by at most free_step per
+        step (each reach changes by at most seg_end * step) and candidates are one step
+        away, so the list holds NEAR_HORIZON - 2 steps. The list is ordered: first the
+        neighbours that can matter to the step rule (``near_col[i]`` of them, all that
+        try_cand scans), then those that only the MC energy needs.
+        """
+        cnt = 0
+        for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
+            j = nbr_idx[k]
+            if nbr_dist[k] - rho[i] - rho[j] - (buffer[i] + buffer[j] + md) \
+                    <= NEAR_HORIZON * free_step:
+                near_k[i, cnt] = k
+                cnt += 1
+        near_col[i] = cnt
+        if near_ref > 0.0:
+            for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
+                j = nbr_idx[k]
+                gap = nbr_dist[k] - rho[i] - rho[j]
+                if gap - (buffer[i] + buffer[j] + md) > NEAR_HORIZON * free_step \
+                        and gap - near_ref <= NEAR_HORIZON * free_step:
+                    near_k[i, cnt] = k
+                    cnt += 1
+        near_cnt[i] = cnt
+        near_until[i] = step + NEAR_HORIZON - 2
 
     def free_window(i, step):
         """MC: how many steps from now every candidate of robot i surely passes the step rule.
@@ -458,7 +420,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
             gb += w * dpb
         return e, ga, gb
 
-    def commit(i, q, s1):
+    def commit(i, q):
         """Copy candidate q's state into robot i's state."""
         for k in range(6):
             trig[i, k] = cand[q, 2 + k]
@@ -482,6 +444,19 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
             return n_ev + 1
         return n_ev
 
+    # initial state: each robot's trig, segment and reach, as for a candidate
+    n_left = 0
+    for i in range(n):
+        cur[i, 0] = start[i, 0]
+        cur[i, 1] = start[i, 1]
+        cand_trig(0, cur[i, 0], cur[i, 1])
+        cand_segment(0, base_xy[i, 0], base_xy[i, 1], seg_end[i])
+        commit(i, 0)
+        home[i] = abs(cur[i, 0] - dest[i, 0]) < ANGLE_EPS and abs(cur[i, 1] - dest[i, 1]) < ANGLE_EPS
+        if movable[i] and not home[i]:
+            n_left += 1
+
+    n_moves = 1
     n_ev = 0
     step = 0
     n_awake = 1
@@ -506,33 +481,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                     continue
                 asleep_at[i] = -1
             if step >= near_until[i]:
-                # Rebuild robot i's short list of neighbours that can matter. A neighbour
-                # is left out when its base-disk bound |b_i - b_j| - rho_i - rho_j exceeds
-                # what matters (the step-rule threshold; for MC also the energy cutoff) by
-                # more than NEAR_HORIZON * free_step. The bound shrinks by at most
-                # free_step per step (each reach changes by at most seg_end * step) and
-                # candidates are one step away, so the list holds NEAR_HORIZON - 2 steps.
-                # The list is ordered: first the neighbours that can matter to the step
-                # rule (``near_col[i]`` of them, all that try_cand scans), then those
-                # that only the MC energy needs.
-                cnt = 0
-                for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
-                    j = nbr_idx[k]
-                    if nbr_dist[k] - rho[i] - rho[j] - (buffer[i] + buffer[j] + md) \
-                            <= NEAR_HORIZON * free_step:
-                        near_k[i, cnt] = k
-                        cnt += 1
-                near_col[i] = cnt
-                if near_ref > 0.0:
-                    for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
-                        j = nbr_idx[k]
-                        gap = nbr_dist[k] - rho[i] - rho[j]
-                        if gap - (buffer[i] + buffer[j] + md) > NEAR_HORIZON * free_step \
-                                and gap - near_ref <= NEAR_HORIZON * free_step:
-                            near_k[i, cnt] = k
-                            cnt += 1
-                near_cnt[i] = cnt
-                near_until[i] = step + NEAR_HORIZON - 2
+                refresh_near(i, step)
             ca = cur[i, 0]
             cb = cur[i, 1]
             da = dest[i, 0]
@@ -665,13 +614,13 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                 n_ev = record(i, step, ca, cb, 0.0, 0.0, n_ev)
                 continue
 
-            # commit the move (cand row holds the segment state computed by _try)
+            # commit the move (cand row holds the segment state computed by try_cand)
             na = cand[best, 0]
             nb = cand[best, 1]
             n_ev = record(i, step, ca, cb, na - ca, nb - cb, n_ev)
             cur[i, 0] = na
             cur[i, 1] = nb
-            commit(i, best, s1)
+            commit(i, best)
             n_moves += 1
             moved_at[i] = n_moves
             n_awake += 1

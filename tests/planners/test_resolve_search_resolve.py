@@ -1,20 +1,19 @@
-"""Deadlock resolution that keeps targets (planners/resolve_search.py), checked by the
-independent 2D checker (validation.checker2d), never by the planner itself."""
+"""Deadlock resolution that keeps targets (planners/resolve_search/resolve.py) and its
+fallbacks in the solver, checked by the independent 2D checker (validation.checker2d),
+never by the planner itself."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from models.array import ArrayGeometry
-from models.errors import SpecError
 from models.kinematics import inverse
 from models.layout import Layout
 from models.robot import load_spec
 from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED
-from planners.resolve_search import AlphaBetaWorld, PathSet, SearchResolveSettings, trim_tails
-from planners.solver import PlannerSettings, plan_reconfiguration
-from planners.stepwise import max_displacement
 from models.trajectory import Trajectory
+from planners.resolve_search import SearchResolveSettings
+from planners.solver import PlannerSettings, plan_reconfiguration
 from tests.planners.conftest import make_geom, plan_random
 from validation.checker2d import check_trajectory
 
@@ -76,42 +75,6 @@ def test_markov_deadlock_is_resolved_too():
                                  np.random.default_rng(5), resolve=False)
     assert plan.n_steps < first.n_steps == PlannerSettings(step_deg=0.1).steps_limit
     assert_clear(geom, plan)
-
-
-def test_detours_after_arriving_are_cut_only_where_safe():
-    """trim_tails: a robot that arrives, steps aside and comes back holds its
-    destination instead, unless a neighbour passes through that place meanwhile."""
-    geom = make_geom(7, 2.0)
-    spec = geom.spec
-    step = 0.5
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
-    n = geom.n_robots
-    fold = np.tile(np.asarray(spec.fold_deg, float), (n, 1))
-    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
-    right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
-
-    def paths_with(right_path):
-        steps = [np.array([0.0])] * n
-        angles = [fold[i][None, :] for i in range(n)]
-        # the centre robot arrives at step 10, leaves (alpha + 20 deg) and is back at 90
-        steps[c] = np.array([0.0, 10.0, 50.0, 90.0])
-        angles[c] = np.array([[30.0, 170.0], fold[c], [30.0, 170.0], fold[c]])
-        if right_path is not None:
-            steps[right], angles[right] = right_path
-        return PathSet(list(steps), list(angles))
-
-    skip = np.zeros(n, dtype=bool)
-    quiet = paths_with(None)
-    assert trim_tails(geom, quiet, fold, skip, md) == [c]
-    np.testing.assert_allclose(quiet.sample(c, np.arange(10.0, 91.0)), np.tile(fold[c], (81, 1)))
-    # the right neighbour reaches into the centre robot's folded place at steps 40-60
-    reach = inverse(geom.base_xy[[right]], geom.base_xy[[c]] + [[3.0, 0.0]],
-                    spec.alpha_length_mm, spec.beta_length_mm)[0]
-    busy = paths_with((np.array([0.0, 40.0, 60.0, 100.0]),
-                       np.array([fold[right], reach, reach, fold[right]])))
-    keep_right = np.eye(n, dtype=bool)[right]          # (its own detour is not the point)
-    assert trim_tails(geom, busy, fold, keep_right, md) == []
-    assert trim_tails(geom, paths_with(None), fold, np.eye(n, dtype=bool)[c], md) == []
 
 
 def walled_in_case():
@@ -182,41 +145,3 @@ def test_groups_the_search_leaves_go_on_alone_after_the_plan(deadlock_547):
     assert np.any(np.abs(during[:, stuck] - fold[stuck]) > 1.0)
     np.testing.assert_allclose(plan.angles_at(np.array([float(c)]))[0], first.start(), atol=1e-9)
     assert_clear(geom, plan)
-
-
-def test_continuation_setting_is_checked():
-    with pytest.raises(SpecError, match="field 'continuation'.*allowed: >= 0"):
-        PlannerSettings(continuation=-1)
-
-
-def test_collides_keeps_the_step_rule_margin():
-    """The adapter's collides() flags capsules nearer than 2 buffer + MD (Eqs. 6-7)."""
-    geom = make_geom(7, 2.0)
-    step = 0.5
-    spec = geom.spec
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
-    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
-    paths = PathSet([np.array([0.0])] * geom.n_robots, [fold[i][None, :] for i in range(geom.n_robots)])
-    world = AlphaBetaWorld(geom, paths, np.ones(geom.n_robots, bool), md, step)
-    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
-    right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
-    arm = world.arm(c, fold[c], fold[c])
-    # the centre robot, stretched (beta 0), turns away from its folded right neighbour:
-    # the clearance goes from negative through MD to several mm
-    alphas = np.linspace(0.0, 40.0, 4001)
-    q = np.column_stack([alphas, np.zeros(alphas.size)])
-    ang = np.tile(fold, (alphas.size, 1, 1))
-    ang[:, c] = q
-    clear = np.array([geom.pair_clearance(a)[np.all(np.sort(geom.pairs, 1) == sorted((c, right)), 1)][0]
-                      for a in ang])
-    hit = arm.collides(q, np.zeros(alphas.size))
-    assert np.all(hit[clear <= md - 1e-6]) and not np.any(hit[clear > md + 1e-6])
-    assert arm.forbidden(np.array([[361.0, 10.0], [10.0, -1.0]])).all()     # joint limits
-    assert not arm.forbidden(np.array([[10.0, 170.0]])).any()
-
-
-def test_resolve_setting_is_checked():
-    with pytest.raises(SpecError, match="field 'resolve'.*allowed: search, replace"):
-        PlannerSettings(resolve="magic")
-    with pytest.raises(SpecError, match="'action_deg'"):
-        SearchResolveSettings(action_deg=0.0)

@@ -1,0 +1,32 @@
+"""Deadlock resolution that keeps targets: Sabater's state-time search for alpha/beta robots.
+
+A group of robots the stepwise planner (:mod:`planners.stepwise`) leaves deadlocked is
+re-planned by prioritized state-time search (Sabater 2018) against the other robots'
+stepwise paths; the new paths are merged into the plan on the same step clock.
+
+Modules
+-------
+settings
+    :class:`SearchResolveSettings`, and their conversion to the roadmap's step clock.
+paths
+    :class:`PathSet`, per-robot breakpoint paths on the step clock (planning frame).
+kernels
+    Numba kernels of the collision tests (beta segments, step rule, Eqs. 6-7).
+world
+    :class:`AlphaBetaWorld`, one robot's ``forbidden`` / ``collides`` black boxes.
+trim
+    :func:`trim_tails`, cutting the detours robots make after arriving.
+resolve
+    :func:`resolve_groups` / :func:`search_group`, the search over priorities per group,
+    and its outcome (:class:`SearchOutcome`, :class:`GroupResult`).
+
+Units: mm and degrees; time in planner steps.
+"""
+from planners.resolve_search.paths import PathSet
+from planners.resolve_search.resolve import GroupResult, SearchOutcome, resolve_groups, search_group
+from planners.resolve_search.settings import SearchResolveSettings
+from planners.resolve_search.trim import trim_tails
+from planners.resolve_search.world import AlphaBetaWorld
+
+__all__ = ["AlphaBetaWorld", "GroupResult", "PathSet", "SearchOutcome", "SearchResolveSettings",
+           "resolve_groups", "search_group", "trim_tails"]

@@ -1,0 +1,113 @@
+"""Numba kernels of the search's collision tests: beta segments along a path and the
+step rule (Sayres 2021 Eqs. 6-7) against moving obstacles, static obstacles and points.
+
+:class:`planners.resolve_search.world.AlphaBetaWorld` builds the obstacle tables and
+calls these in its ``collides`` / ``forbidden`` black boxes; :func:`pair_conflict`
+also serves :func:`planners.resolve_search.trim.trim_tails`.
+
+Units: angles in deg, lengths in mm; a segment is (x0, y0, x1, y1), the beta arm from
+``s0`` to ``s1`` mm along it; shapes in each docstring (T = steps of a time table).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from models.geometry2d import beta_segment, point_segment_distance, segments_within
+
+
+@njit(cache=True)
+def segments_at(base_x, base_y, ang, l_alpha, s0, s1):
+    """Beta segments (x0, y0, x1, y1) of one robot at each row of ang (T, 2) deg: (T, 4)."""
+    out = np.empty((ang.shape[0], 4))
+    for k in range(ang.shape[0]):
+        x0, y0, x1, y1 = beta_segment(base_x, base_y, ang[k, 0], ang[k, 1], l_alpha, s0, s1)
+        out[k, 0] = x0
+        out[k, 1] = y0
+        out[k, 2] = x1
+        out[k, 3] = y1
+    return out
+
+
+@njit(cache=True)
+def moving_collisions(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, out, hits):
+    """Moving-obstacle test of one robot.
+
+    q : (m, 2) deg; t : (m,) step index (whole numbers; clamped to the table)
+    obs_seg : (T + 1, n_obs, 4) obstacle beta segments at each step, mm
+    obs_rho : (T + 1, n_obs) farthest point of each obstacle segment from its base, mm
+    obs_d : (n_obs,) base-to-base distance, mm
+    obs_th : (n_obs,) clearance threshold per obstacle (buffer_i + buffer_j + MD), mm
+    out : (m,) bool, written
+    hits : (n_obs,) int64, incremented for the first obstacle each colliding query meets
+
+    Two base disks farther apart than the threshold are skipped before the exact test.
+    """
+    n_t = obs_seg.shape[0]
+    n_obs = obs_seg.shape[1]
+    for r in range(q.shape[0]):
+        k = int(round(t[r]))
+        if k < 0:
+            k = 0
+        elif k >= n_t:
+            k = n_t - 1
+        x0, y0, x1, y1 = beta_segment(bx, by, q[r, 0], q[r, 1], l_alpha, s0, s1)
+        rho = math.sqrt(max((x0 - bx) ** 2 + (y0 - by) ** 2, (x1 - bx) ** 2 + (y1 - by) ** 2))
+        hit = False
+        for o in range(n_obs):
+            if obs_d[o] - rho - obs_rho[k, o] > obs_th[o]:
+                continue
+            if segments_within(x0, y0, x1, y1, obs_seg[k, o, 0], obs_seg[k, o, 1],
+                               obs_seg[k, o, 2], obs_seg[k, o, 3], obs_th[o]):
+                hit = True
+                hits[o] += 1
+                break
+        out[r] = hit
+
+
+@njit(cache=True)
+def reach_of(seg, bx, by):
+    """(T,) farthest distance of each segment (T, 4) from the base (bx, by), mm."""
+    out = np.empty(seg.shape[0])
+    for k in range(seg.shape[0]):
+        out[k] = math.sqrt(max((seg[k, 0] - bx) ** 2 + (seg[k, 1] - by) ** 2,
+                               (seg[k, 2] - bx) ** 2 + (seg[k, 3] - by) ** 2))
+    return out
+
+
+@njit(cache=True)
+def static_collisions(q, bx, by, l_alpha, s0, s1, limits, st_seg, st_th, pt_xy, pt_th, out):
+    """Static test of one robot: joint limits, static segments (offline robots), points
+    (fiducials). q (m, 2) deg; limits (4,) deg; st_seg (a, 4) mm, st_th (a,) mm;
+    pt_xy (b, 2) mm, pt_th (b,) mm; out (m,) bool."""
+    for r in range(q.shape[0]):
+        a = q[r, 0]
+        b = q[r, 1]
+        if a < limits[0] - 1e-9 or a > limits[1] + 1e-9 or b < limits[2] - 1e-9 or b > limits[3] + 1e-9:
+            out[r] = True
+            continue
+        x0, y0, x1, y1 = beta_segment(bx, by, a, b, l_alpha, s0, s1)
+        hit = False
+        for o in range(st_seg.shape[0]):
+            if segments_within(x0, y0, x1, y1, st_seg[o, 0], st_seg[o, 1], st_seg[o, 2],
+                               st_seg[o, 3], st_th[o]):
+                hit = True
+                break
+        if not hit:
+            for o in range(pt_xy.shape[0]):
+                if point_segment_distance(pt_xy[o, 0], pt_xy[o, 1], x0, y0, x1, y1) <= pt_th[o]:
+                    hit = True
+                    break
+        out[r] = hit
+
+
+@njit(cache=True)
+def pair_conflict(seg_a, seg_b, th):
+    """True when two robots' segments (T, 4) come within th mm at the same step."""
+    for k in range(seg_a.shape[0]):
+        if segments_within(seg_a[k, 0], seg_a[k, 1], seg_a[k, 2], seg_a[k, 3],
+                           seg_b[k, 0], seg_b[k, 1], seg_b[k, 2], seg_b[k, 3], th):
+            return True
+    return False

@@ -1,0 +1,24 @@
+"""The stepwise Greedy (GC) and Markov (MC) planners of Sayres 2021 Sect. 4.
+
+Every robot moves by at most ``step_deg`` per axis and step, robot by robot, under the
+step rule (Eqs. 6-7); its path comes back as breakpoints on the step clock.
+
+Modules
+-------
+moves
+    The step-rule margin MD (:func:`max_displacement`, Eq. 7) and the kernel's scalar
+    helpers (one candidate move, trig rotation by whole steps, segment reach).
+kernel
+    :func:`run_stepwise`, the numba kernel: GC and MC on raw arrays.
+run
+    :func:`run_array`: the kernel on an :class:`models.array.ArrayGeometry`, with
+    breakpoint buffers that grow on overflow; its outcome is a :class:`StepRun`.
+
+Units: angles in deg, lengths in mm, time in planner steps.
+"""
+from planners.stepwise.kernel import ENERGY_CUTOFF_MM, NEAR_HORIZON, run_stepwise
+from planners.stepwise.moves import ANGLE_EPS, DEG, max_displacement
+from planners.stepwise.run import StepRun, run_array
+
+__all__ = ["ANGLE_EPS", "DEG", "ENERGY_CUTOFF_MM", "NEAR_HORIZON", "StepRun", "max_displacement",
+           "run_array", "run_stepwise"]

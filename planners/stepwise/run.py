@@ -1,0 +1,88 @@
+"""One stepwise kernel run on an array: arguments from the geometry, breakpoint buffers.
+
+:func:`run_array` unpacks an :class:`models.array.ArrayGeometry` into the arrays
+:func:`planners.stepwise.kernel.run_stepwise` takes, allocates its breakpoint buffers
+and runs it; when the buffers overflow it runs again, from scratch, with buffers four
+times larger (the kernel is deterministic for a given seed, so the result does not
+depend on the first size). The breakpoints come back as a :class:`StepRun`, in the
+kernel's order (step order); :func:`planners.plan.build_paths` turns them into paths.
+
+Units: angles in deg, lengths in mm, time in planner steps (wall time in s).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.array import ArrayGeometry
+from planners.stepwise.kernel import run_stepwise
+
+
+@dataclass
+class StepRun:
+    """Raw outcome of one kernel call.
+
+    Attributes
+    ----------
+    final : (n, 2) deg, where every robot stands when the run stops
+    n_steps : int, steps taken
+    ev_robot, ev_step : (m,) int64, robot index and step of each breakpoint
+    ev_angles : (m, 2) deg, (alpha, beta) at each breakpoint
+    seconds : float, wall time of the kernel call, s
+    """
+
+    final: np.ndarray
+    n_steps: int
+    ev_robot: np.ndarray
+    ev_step: np.ndarray
+    ev_angles: np.ndarray
+    seconds: float
+
+
+def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray, *,
+              step_deg: float, max_steps: int, md: float, greed: float, phobia: float, seed: int,
+              cap: int | None = None) -> StepRun:
+    """Run the stepwise kernel on ``geom`` from ``start`` towards ``dest``.
+
+    Parameters
+    ----------
+    geom : ArrayGeometry (layout, spec, buffers, Eq. 4 neighbours, fiducials)
+    start, dest : (n, 2) deg
+    movable : (n,) bool; robots that are False never move
+    step_deg : float, planner step, deg; max_steps : int, step limit
+    md : float, step-rule margin MD, mm (:func:`planners.stepwise.moves.max_displacement`)
+    greed, phobia : float in [0, 1], the Markov parameters of every robot; greed 1 and
+        phobia 0 is the greedy planner
+    seed : int, seed of the kernel's generator (Markov moves)
+    cap : int or None, breakpoints the first buffers hold (None: a few dozen per robot
+        for greedy runs, about one per step for Markov random walks)
+    """
+    spec = geom.spec
+    n = geom.n_robots
+    greedy = greed >= 1.0 and phobia <= 0.0
+    limits = np.array([*spec.alpha_limits_deg, *spec.beta_limits_deg], dtype=np.float64)
+    if cap is None:
+        cap = 64 * n + 1024 if greedy else n * 2048
+    cap = max(1, int(cap))
+    start = np.ascontiguousarray(start, dtype=np.float64)
+    dest = np.ascontiguousarray(dest, dtype=np.float64)
+    greed_all = np.full(n, float(greed))
+    while True:
+        ev_robot = np.empty(cap, dtype=np.int64)
+        ev_step = np.empty(cap, dtype=np.int64)
+        ev_angles = np.empty((cap, 2))
+        final = np.empty((n, 2))
+        t0 = time.perf_counter()
+        n_ev, n_steps = run_stepwise(
+            geom.base_xy, start, dest, movable, geom.nbr_ptr, geom.nbr_idx, geom.nbr_dist,
+            geom.fid_ptr, geom.fid_idx, geom.fid_xy, geom.fiducial_buffer,
+            spec.alpha_length_mm, spec.segment_start_mm, geom.seg_end, geom.buffer, limits,
+            step_deg, max_steps, md, greed_all, phobia, seed,
+            ev_robot, ev_step, ev_angles, final)
+        seconds = time.perf_counter() - t0
+        if n_ev >= 0:
+            return StepRun(final, int(n_steps), ev_robot[:n_ev], ev_step[:n_ev], ev_angles[:n_ev],
+                           seconds)
+        cap *= 4

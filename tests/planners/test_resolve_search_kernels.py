@@ -1,0 +1,64 @@
+"""Numba kernels of the search's collision tests (planners/resolve_search/kernels.py),
+against beta segments written out by hand."""
+from __future__ import annotations
+
+import numpy as np
+
+from planners.resolve_search.kernels import (moving_collisions, pair_conflict, reach_of,
+                                             segments_at, static_collisions)
+
+L_ALPHA, S0, S1 = 7.4, 0.0, 15.0
+LIMITS = np.array([0.0, 360.0, 0.0, 180.0])
+
+
+def segment(bx, by, a_deg, b_deg):
+    a, ab = np.radians(a_deg), np.radians(a_deg + b_deg)
+    ex, ey = bx + L_ALPHA * np.cos(a), by + L_ALPHA * np.sin(a)
+    return np.array([ex + S0 * np.cos(ab), ey + S0 * np.sin(ab),
+                     ex + S1 * np.cos(ab), ey + S1 * np.sin(ab)])
+
+
+def test_segments_and_reach_follow_the_arm():
+    ang = np.array([[0.0, 0.0], [90.0, 90.0], [30.0, 180.0]])
+    seg = segments_at(1.0, 2.0, ang, L_ALPHA, S0, S1)
+    np.testing.assert_allclose(seg, [segment(1.0, 2.0, *q) for q in ang], atol=1e-12)
+    np.testing.assert_allclose(reach_of(seg, 1.0, 2.0),
+                               [L_ALPHA + S1, np.hypot(L_ALPHA, S1), S1 - L_ALPHA], atol=1e-12)
+
+
+def test_pair_conflict_is_per_step():
+    # robot b (base 30 mm to the right) turns its stretched arm towards robot a's
+    a = segments_at(0.0, 0.0, np.array([[0.0, 0.0]] * 3), L_ALPHA, S0, S1)
+    b = segments_at(30.0, 0.0, np.array([[90.0, 0.0], [180.0, 0.0], [90.0, 0.0]]), L_ALPHA, S0, S1)
+    # at step 1 the tips are 30 - 2 * 22.4 < 0 apart: overlap; else far apart
+    assert pair_conflict(a, b, 1.0)
+    assert not pair_conflict(a[[0, 2]], b[[0, 2]], 1.0)
+
+
+def test_moving_obstacle_table_is_read_at_the_query_step():
+    """One obstacle (base 30 mm right) stretched towards the robot at step 1 only; steps
+    outside the table are clamped to its ends; hits count the colliding queries."""
+    obs = np.stack([segments_at(30.0, 0.0, np.array([[90.0, 0.0], [180.0, 0.0], [90.0, 0.0]]),
+                                L_ALPHA, S0, S1)], axis=1)          # (T + 1, 1, 4)
+    rho = reach_of(obs[:, 0, :], 30.0, 0.0)[:, None]
+    q = np.zeros((5, 2))                                               # robot stretched to +x
+    t = np.array([0.0, 1.0, 2.0, -3.0, 9.0])
+    out = np.empty(5, dtype=np.bool_)
+    hits = np.zeros(1, dtype=np.int64)
+    moving_collisions(q, t, 0.0, 0.0, L_ALPHA, S0, S1, obs, rho, np.array([30.0]),
+                      np.array([1.0]), out, hits)
+    np.testing.assert_array_equal(out, [False, True, False, False, False])
+    assert hits[0] == 1
+
+
+def test_static_test_holds_limits_segments_and_points():
+    st_seg = segment(30.0, 0.0, 180.0, 0.0)[None, :]                  # reaches to x = 7.6
+    q = np.array([[0.0, 0.0], [180.0, 0.0], [0.0, 181.0], [90.0, 0.0]])
+    out = np.empty(4, dtype=np.bool_)
+    static_collisions(q, 0.0, 0.0, L_ALPHA, S0, S1, LIMITS, st_seg, np.array([1.0]),
+                      np.zeros((0, 2)), np.zeros(0), out)
+    np.testing.assert_array_equal(out, [True, False, True, False])
+    # a point (fiducial) on the arm at alpha = 90 deg
+    static_collisions(q, 0.0, 0.0, L_ALPHA, S0, S1, LIMITS, np.zeros((0, 4)), np.zeros(0),
+                      np.array([[0.0, 15.0]]), np.array([1.0]), out)
+    np.testing.assert_array_equal(out, [False, False, True, True])

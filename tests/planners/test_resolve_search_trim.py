@@ -1,0 +1,46 @@
+"""Cutting the detours robots make after arriving (planners/resolve_search/trim.py)."""
+from __future__ import annotations
+
+import numpy as np
+
+from models.kinematics import inverse
+from planners.resolve_search.paths import PathSet
+from planners.resolve_search.trim import trim_tails
+from planners.stepwise import max_displacement
+from tests.planners.conftest import make_geom
+
+
+def test_detours_after_arriving_are_cut_only_where_safe():
+    """trim_tails: a robot that arrives, steps aside and comes back holds its
+    destination instead, unless a neighbour passes through that place meanwhile."""
+    geom = make_geom(7, 2.0)
+    spec = geom.spec
+    step = 0.5
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
+    n = geom.n_robots
+    fold = np.tile(np.asarray(spec.fold_deg, float), (n, 1))
+    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
+    right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
+
+    def paths_with(right_path):
+        steps = [np.array([0.0])] * n
+        angles = [fold[i][None, :] for i in range(n)]
+        # the centre robot arrives at step 10, leaves (alpha + 20 deg) and is back at 90
+        steps[c] = np.array([0.0, 10.0, 50.0, 90.0])
+        angles[c] = np.array([[30.0, 170.0], fold[c], [30.0, 170.0], fold[c]])
+        if right_path is not None:
+            steps[right], angles[right] = right_path
+        return PathSet(list(steps), list(angles))
+
+    skip = np.zeros(n, dtype=bool)
+    quiet = paths_with(None)
+    assert trim_tails(geom, quiet, fold, skip, md) == [c]
+    np.testing.assert_allclose(quiet.sample(c, np.arange(10.0, 91.0)), np.tile(fold[c], (81, 1)))
+    # the right neighbour reaches into the centre robot's folded place at steps 40-60
+    reach = inverse(geom.base_xy[[right]], geom.base_xy[[c]] + [[3.0, 0.0]],
+                    spec.alpha_length_mm, spec.beta_length_mm)[0]
+    busy = paths_with((np.array([0.0, 40.0, 60.0, 100.0]),
+                       np.array([fold[right], reach, reach, fold[right]])))
+    keep_right = np.eye(n, dtype=bool)[right]          # (its own detour is not the point)
+    assert trim_tails(geom, busy, fold, keep_right, md) == []
+    assert trim_tails(geom, paths_with(None), fold, np.eye(n, dtype=bool)[c], md) == []

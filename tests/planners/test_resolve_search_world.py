@@ -1,0 +1,83 @@
+"""One robot's black boxes for the search (planners/resolve_search/world.py): the step
+rule against moving robots, offline robots and the joint limits."""
+from __future__ import annotations
+
+import numpy as np
+
+from models.kinematics import inverse
+from planners.resolve_search.paths import PathSet
+from planners.resolve_search.world import AlphaBetaWorld
+from planners.stepwise import max_displacement
+from tests.planners.conftest import make_geom
+
+
+def test_collides_keeps_the_step_rule_margin():
+    """The adapter's collides() flags capsules nearer than 2 buffer + MD (Eqs. 6-7)."""
+    geom = make_geom(7, 2.0)
+    step = 0.5
+    spec = geom.spec
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
+    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
+    paths = PathSet([np.array([0.0])] * geom.n_robots, [fold[i][None, :] for i in range(geom.n_robots)])
+    world = AlphaBetaWorld(geom, paths, np.ones(geom.n_robots, bool), md, step)
+    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
+    right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
+    arm = world.arm(c, fold[c], fold[c])
+    # the centre robot, stretched (beta 0), turns away from its folded right neighbour:
+    # the clearance goes from negative through MD to several mm
+    alphas = np.linspace(0.0, 40.0, 4001)
+    q = np.column_stack([alphas, np.zeros(alphas.size)])
+    ang = np.tile(fold, (alphas.size, 1, 1))
+    ang[:, c] = q
+    clear = np.array([geom.pair_clearance(a)[np.all(np.sort(geom.pairs, 1) == sorted((c, right)), 1)][0]
+                      for a in ang])
+    hit = arm.collides(q, np.zeros(alphas.size))
+    assert np.all(hit[clear <= md - 1e-6]) and not np.any(hit[clear > md + 1e-6])
+    assert arm.forbidden(np.array([[361.0, 10.0], [10.0, -1.0]])).all()     # joint limits
+    assert not arm.forbidden(np.array([[10.0, 170.0]])).any()
+
+
+def intrusion():
+    """7 robots at 2 mm, everyone folded; the centre robot's right neighbour reaches into
+    its folded place (3 mm right of its base) at steps 40-60 and folds back.
+
+    Returns (geom, md, centre, right, its intruding angles, fold (n, 2), paths)."""
+    geom = make_geom(7, 2.0)
+    spec = geom.spec
+    step = 0.5
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
+    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
+    right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
+    reach = inverse(geom.base_xy[[right]], geom.base_xy[[c]] + [[3.0, 0.0]],
+                    spec.alpha_length_mm, spec.beta_length_mm)[0]
+    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
+    steps = [np.array([0.0])] * geom.n_robots
+    angles = [fold[i][None, :] for i in range(geom.n_robots)]
+    steps[right] = np.array([0.0, 40.0, 60.0, 100.0])
+    angles[right] = np.array([fold[right], reach, reach, fold[right]])
+    return geom, md, c, right, reach, fold, PathSet(list(steps), list(angles))
+
+
+def test_moving_obstacles_are_checked_at_their_step():
+    """A neighbour that reaches into the centre robot's folded place at steps 40-60 is an
+    obstacle then, not before or after; the world counts it as the one that blocked."""
+    geom, md, c, right, _, fold, paths = intrusion()
+    world = AlphaBetaWorld(geom, paths, np.ones(geom.n_robots, bool), md, 0.5)
+    arm = world.arm(c, fold[c], fold[c])
+    t = np.arange(0.0, 121.0)
+    hit = arm.collides(np.tile(fold[c], (t.size, 1)), t)
+    assert hit[40:61].all()
+    assert not hit[:10].any() and not hit[110:].any()     # table end: it holds its fold
+    assert world.blockers(c) == [right]
+    assert world.blockers(c, exclude=[right]) == []
+    assert not arm.forbidden(fold[c][None, :]).any()       # a mover, not a static obstacle
+
+
+def test_offline_robots_are_static_obstacles():
+    geom, md, c, right, reach, fold, paths = intrusion()
+    paths.steps[right], paths.angles[right] = np.array([0.0]), reach[None, :]   # parked there
+    movable = np.ones(geom.n_robots, bool)
+    movable[right] = False
+    arm = AlphaBetaWorld(geom, paths, movable, md, 0.5).arm(c, fold[c], fold[c])
+    assert arm.forbidden(fold[c][None, :]).all()
+    assert not arm.collides(fold[c][None, :], np.zeros(1)).any()

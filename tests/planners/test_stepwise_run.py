@@ -1,0 +1,60 @@
+"""The stepwise kernel on an array (planners/stepwise/run.py): breakpoints that rebuild
+the paths, buffers that grow without changing the result."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planners.plan import build_paths
+from planners.stepwise import ANGLE_EPS, max_displacement
+from planners.stepwise.run import run_array
+from planners.targets import random_targets
+from tests.planners.conftest import make_geom
+
+
+@pytest.fixture(scope="module")
+def problem():
+    geom = make_geom(37, 2.0)
+    spec = geom.spec
+    step = 0.5
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
+    targets = random_targets(geom, np.random.default_rng(4), margin_mm=md)
+    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
+    return geom, targets, fold, dict(step_deg=step, max_steps=2000, md=md)
+
+
+@pytest.mark.parametrize("greed,phobia", [(1.0, 0.0), (0.9, 0.3)])
+def test_small_buffers_grow_and_give_the_same_run(problem, greed, phobia):
+    geom, targets, fold, kw = problem
+    movable = np.ones(geom.n_robots, bool)
+    big = run_array(geom, targets, fold, movable, greed=greed, phobia=phobia, seed=5, **kw)
+    small = run_array(geom, targets, fold, movable, greed=greed, phobia=phobia, seed=5, cap=1, **kw)
+    assert big.ev_robot.size > 1
+    assert small.n_steps == big.n_steps
+    for name in ("final", "ev_robot", "ev_step", "ev_angles"):
+        np.testing.assert_array_equal(getattr(small, name), getattr(big, name))
+
+
+def test_breakpoints_rebuild_paths_that_move_one_step_at_a_time(problem):
+    geom, targets, fold, kw = problem
+    movable = np.ones(geom.n_robots, bool)
+    run = run_array(geom, targets, fold, movable, greed=1.0, phobia=0.0, seed=0, **kw)
+    np.testing.assert_allclose(run.final, fold, atol=ANGLE_EPS)       # this one converges
+    assert np.all(np.diff(run.ev_step) >= 0)                          # step order
+    ptr, steps, angles = build_paths(geom.n_robots, run.ev_robot, run.ev_step, run.ev_angles,
+                                     targets, run.final, run.n_steps)
+    for i in range(geom.n_robots):
+        st, an = steps[ptr[i]:ptr[i + 1]], angles[ptr[i]:ptr[i + 1]]
+        np.testing.assert_allclose(an[0], targets[i])
+        np.testing.assert_allclose(an[-1], fold[i], atol=ANGLE_EPS)
+        rate = np.abs(np.diff(an, axis=0)) / np.maximum(np.diff(st), 1.0)[:, None]
+        assert rate.max() <= kw["step_deg"] + 1e-9
+
+
+def test_robots_that_cannot_move_stay(problem):
+    geom, targets, fold, kw = problem
+    movable = np.ones(geom.n_robots, bool)
+    movable[::3] = False
+    run = run_array(geom, targets, fold, movable, greed=0.9, phobia=0.3, seed=1, **kw)
+    np.testing.assert_array_equal(run.final[~movable], targets[~movable])
+    assert not np.isin(run.ev_robot, np.flatnonzero(~movable)).any()    # no breakpoints
