@@ -39,3 +39,23 @@ def test_modules_stay_small(package):
     long = {str(p.relative_to(ROOT)): n for p in sorted((ROOT / package).rglob("*.py"))
             if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
     assert long == {}, f"modules over {MAX_LINES} lines: split them along their seams"
+
+
+def test_every_package_folder_is_installed():
+    """pyproject lists packages one by one: a new subpackage must be in the list, or a
+    wheel (a non-editable install) would leave it out."""
+    import tomllib
+
+    tool = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    mapping = tool.get("package-dir", {})
+
+    def folder(name: str) -> Path:
+        for prefix, path in sorted(mapping.items(), key=lambda kv: -len(kv[0])):
+            if name == prefix or name.startswith(prefix + "."):
+                return ROOT / path / Path(*name[len(prefix):].strip(".").split(".") if name != prefix else ())
+        return ROOT / Path(*name.split("."))
+
+    listed = {folder(name).resolve() for name in tool["packages"]}
+    present = {p.parent.resolve() for pk in PACKAGES for p in (ROOT / pk).rglob("__init__.py")}
+    assert present - listed == set(), "add these packages to [tool.setuptools] packages"
+    assert all(p.is_dir() for p in listed)
