@@ -36,15 +36,16 @@ _RAISE = 1.5
 
 
 @njit(cache=True)
-def rdp_mask(t, y, tol, keep):
-    """RDP on one axis: sets ``keep`` (n,) and returns the number of kept points.
+def _rdp(t, y, tol, keep, axis_form):
+    """RDP on (t, y): sets ``keep`` (n,) and returns the number of kept points.
 
-    Parameters
-    ----------
-    t : (n,) float64, non-decreasing times
-    y : (n,) float64, angles
-    tol : float, largest allowed vertical deviation of a dropped sample
-    keep : (n,) bool, output
+    A sample's deviation is the largest vertical distance, over the columns of ``y``
+    (n, m), to the chord between the kept samples around it; the sample of largest
+    deviation is kept while that exceeds ``tol`` (the first one at a tie). The chord's
+    value at ``t_k`` is computed as ``y_i + dy (t_k - t_i) / dt`` with ``axis_form``
+    (:func:`rdp_mask`), else as ``y_i + f dy`` with ``f = (t_k - t_i) / dt``
+    (:func:`simplify_plan`): the two roundings keep different samples at exact ties, and
+    results published with each depend on it.
     """
     n = t.size
     keep[:] = False
@@ -55,7 +56,6 @@ def rdp_mask(t, y, tol, keep):
     if n <= 2:
         return n
     stack = np.empty((n, 2), dtype=np.int64)
-    top = 0
     stack[0, 0] = 0
     stack[0, 1] = n - 1
     top = 1
@@ -67,15 +67,20 @@ def rdp_mask(t, y, tol, keep):
         if j - i < 2:
             continue
         dt = t[j] - t[i]
-        dy = y[j] - y[i]
         best = -1.0
         idx = -1
         for k in range(i + 1, j):
-            if dt > 0.0:
-                yk = y[i] + dy * (t[k] - t[i]) / dt
-            else:
-                yk = y[i]
-            d = abs(y[k] - yk)
+            f = 0.0 if axis_form or not dt > 0.0 else (t[k] - t[i]) / dt
+            d = 0.0
+            for c in range(y.shape[1]):
+                dy = y[j, c] - y[i, c]
+                if not axis_form:
+                    yk = y[i, c] + f * dy
+                elif dt > 0.0:
+                    yk = y[i, c] + dy * (t[k] - t[i]) / dt
+                else:
+                    yk = y[i, c]
+                d = max(d, abs(y[k, c] - yk))
             if d > best:
                 best = d
                 idx = k
@@ -88,6 +93,21 @@ def rdp_mask(t, y, tol, keep):
             stack[top + 1, 1] = j
             top += 2
     return count
+
+
+@njit(cache=True)
+def rdp_mask(t, y, tol, keep):
+    """RDP on one axis: sets ``keep`` (n,) and returns the number of kept points.
+
+    Parameters
+    ----------
+    t : (n,) float64, non-decreasing times
+    y : (n,) float64, angles
+    tol : float >= 0, largest allowed vertical deviation of a dropped sample
+    keep : (n,) bool, output
+    """
+    y2 = np.ascontiguousarray(y).reshape((y.size, 1))
+    return _rdp(t, y2, tol, keep, True)
 
 
 @njit(cache=True)
@@ -153,53 +173,12 @@ def max_deviation(t_dense, y_dense, t_kept, y_kept) -> float:
 # Stepwise plans
 # =====================================================================================
 @njit(cache=True)
-def _rdp_pair(t, y, tol, keep):
-    """RDP on (t, alpha, beta) with the larger vertical deviation of the two axes."""
-    n = t.size
-    keep[:] = False
-    if n == 0:
-        return
-    keep[0] = True
-    keep[n - 1] = True
-    if n <= 2:
-        return
-    stack = np.empty((n, 2), dtype=np.int64)
-    stack[0, 0] = 0
-    stack[0, 1] = n - 1
-    top = 1
-    while top > 0:
-        top -= 1
-        i = stack[top, 0]
-        j = stack[top, 1]
-        if j - i < 2:
-            continue
-        dt = t[j] - t[i]
-        best = -1.0
-        idx = -1
-        for k in range(i + 1, j):
-            f = (t[k] - t[i]) / dt if dt > 0.0 else 0.0
-            d = 0.0
-            for c in range(2):
-                d = max(d, abs(y[k, c] - (y[i, c] + f * (y[j, c] - y[i, c]))))
-            if d > best:
-                best = d
-                idx = k
-        if best > tol:
-            keep[idx] = True
-            stack[top, 0] = i
-            stack[top, 1] = idx
-            stack[top + 1, 0] = idx
-            stack[top + 1, 1] = j
-            top += 2
-
-
-@njit(cache=True)
 def _simplify_plan(ptr, steps, angles, tol, keep):
     for i in range(ptr.size - 1):
         a = ptr[i]
         b = ptr[i + 1]
         if tol[i] > 0.0:
-            _rdp_pair(steps[a:b], angles[a:b], tol[i], keep[a:b])
+            _rdp(steps[a:b], angles[a:b], tol[i], keep[a:b], False)
         else:
             keep[a:b] = True
 

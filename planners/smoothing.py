@@ -207,20 +207,6 @@ def plan_deviation(plan: Plan, path: SmoothPath, stride: int = 1) -> np.ndarray:
 # =====================================================================================
 # Evaluation kernels
 # =====================================================================================
-@njit(cache=True, inline="always")
-def _find_piece(knots, k0, k1, s):
-    """Index k in [k0, k1 - 2] of the piece holding s (knots[k0:k1] increasing)."""
-    lo = k0
-    hi = k1 - 1
-    while hi - lo > 1:
-        mid = (lo + hi) >> 1
-        if knots[mid] <= s:
-            lo = mid
-        else:
-            hi = mid
-    return lo
-
-
 @njit(cache=True)
 def eval_robot(ptr, knots, coef, i, s, deriv, out):
     """Robot i at parameter s: writes axis values (deriv 0/1/2) into out[0:2]."""
@@ -234,7 +220,8 @@ def eval_robot(ptr, knots, coef, i, s, deriv, out):
         for ax in range(2):
             out[ax] = coef[k1 - 1, ax, 0] if deriv == 0 else 0.0
         return
-    k = _find_piece(knots, k0, k1, s)
+    # the piece [knots[k], knots[k + 1]) holding s (the last one for a NaN s)
+    k = min(k0 + np.searchsorted(knots[k0:k1], s, side="right") - 1, k1 - 2)
     x = s - knots[k]
     for ax in range(2):
         c0 = coef[k, ax, 0]

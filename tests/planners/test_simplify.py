@@ -9,6 +9,7 @@ from planners.simplify import (max_deviation, rdp_mask, simplify_axis, simplify_
                                simplify_plan)
 from planners.timing import pl_kinematics
 from tests.planners.conftest import make_geom, plan_random
+from tests.planners.path_builders import make_plan
 
 
 def test_straight_line_keeps_its_two_ends():
@@ -104,3 +105,54 @@ def test_simplified_markov_plan_stays_within_tolerance_at_every_step(tol):
     np.testing.assert_array_equal(same.path_step, plan.path_step)
     with pytest.raises(SpecError, match="presimplify_deg"):
         simplify_plan(plan, -1.0)
+
+
+def rdp_reference(t, y, tol, axis_form):
+    """Textbook recursive RDP (vertical deviation, largest over the columns of y, first
+    sample at a tie), its chord rounded as rdp_mask (axis_form) or simplify_plan does."""
+    keep = np.zeros(t.size, dtype=bool)
+    keep[[0, -1]] = True
+
+    def split(i, j):
+        dt = t[j] - t[i]
+        best, idx = -1.0, -1
+        for k in range(i + 1, j):
+            d = 0.0
+            for c in range(y.shape[1]):
+                dy = y[j, c] - y[i, c]
+                if axis_form:
+                    yk = y[i, c] + dy * (t[k] - t[i]) / dt if dt > 0 else y[i, c]
+                else:
+                    yk = y[i, c] + ((t[k] - t[i]) / dt if dt > 0 else 0.0) * dy
+                d = max(d, abs(y[k, c] - yk))
+            if d > best:
+                best, idx = d, k
+        if best > tol:
+            keep[idx] = True
+            split(i, idx)
+            split(idx, j)
+
+    split(0, t.size - 1)
+    return keep
+
+
+def test_each_chord_rounding_is_kept_at_exact_ties():
+    """On a coarse grid of times and angles deviations tie exactly, and the two ways of
+    rounding the chord keep different samples; rdp_mask and simplify_plan each keep
+    their own (results published with each depend on it)."""
+    rng = np.random.default_rng(0)
+    differ = 0
+    for _ in range(400):
+        n = int(rng.integers(3, 30))
+        t = np.sort(rng.choice(np.arange(1, 100), n - 1, replace=False)).astype(float)
+        t = np.concatenate([[0.0], t])
+        y = rng.integers(-5, 6, (n, 2)) * 0.1
+        keep = np.empty(n, dtype=np.bool_)
+        count = rdp_mask(t, y[:, 0].copy(), 0.05, keep)
+        axis = rdp_reference(t, y[:, :1], 0.05, True)
+        np.testing.assert_array_equal(keep, axis)
+        assert count == axis.sum()
+        small = simplify_plan(make_plan([(t, y)]), 0.05)
+        np.testing.assert_array_equal(small.path_step, t[rdp_reference(t, y, 0.05, False)])
+        differ += not np.array_equal(axis, rdp_reference(t, y[:, :1], 0.05, False))
+    assert differ > 0

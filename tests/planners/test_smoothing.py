@@ -6,26 +6,9 @@ import pytest
 
 from models.errors import SpecError
 from models.robot import load_spec
-from planners.plan import Plan
 from planners.smoothing import plan_deviation, smooth_plan, window_for_limits
 from tests.planners.conftest import make_geom, plan_random
-
-
-def make_plan(paths, step_deg: float = 0.1) -> Plan:
-    """A Plan from per-robot (steps, angles) breakpoints, built inline."""
-    n = len(paths)
-    ptr = np.zeros(n + 1, dtype=np.int64)
-    ptr[1:] = np.cumsum([len(s) for s, _ in paths])
-    n_steps = int(max(s[-1] for s, _ in paths))
-    return Plan(np.arange(1, n + 1), step_deg, step_deg / 30.0, n_steps, ptr,
-                np.concatenate([np.asarray(s, float) for s, _ in paths]),
-                np.concatenate([np.asarray(a, float).reshape(-1, 2) for _, a in paths]),
-                np.array(["reached"] * n, dtype=object), np.zeros((n, 2)), np.zeros((n, 2)))
-
-
-# one robot: alpha rises 0.1 deg/step for 300 steps then falls for 100 (a reversal);
-# beta waits 100 steps, then falls 0.1 deg/step (a start corner)
-CORNER = make_plan([([0, 100, 300, 400], [[10, 170], [20, 170], [40, 150], [30, 140]])])
+from tests.planners.path_builders import CORNER, make_plan
 
 
 def test_running_average_is_exact_piecewise_quadratic():
@@ -150,3 +133,16 @@ def test_fractional_windows_stay_c1(w):
     u = np.linspace(-0.5, 0.5, 2001) * w
     raw = plan.angles_at((s[:, None] + u[None, :] - 100.0).ravel()).reshape(s.size, u.size, 2)
     np.testing.assert_allclose(sp.evaluate(s)[:, 0], np.trapezoid(raw, u, axis=1) / w, atol=1e-4)
+
+
+def test_a_knot_starts_its_own_piece():
+    """At a knot exactly, evaluate uses the piece that starts there: the value is that
+    piece's constant coefficient (both sides agree) and q'' its right-hand constant."""
+    sp = smooth_plan(CORNER, window_steps=40.0)
+    knots = sp.robot_knots(0)
+    inner = knots[1:-1]
+    np.testing.assert_array_equal(sp.evaluate(inner)[:, 0, :], sp.coef[1:-1, :, 0])
+    np.testing.assert_array_equal(sp.evaluate(inner, deriv=1)[:, 0, :], sp.coef[1:-1, :, 1])
+    np.testing.assert_array_equal(sp.evaluate(inner, deriv=2)[:, 0, :], 2.0 * sp.coef[1:-1, :, 2])
+    # a NaN parameter gives NaN, not a neighbour's value
+    assert np.isnan(sp.evaluate([np.nan])).all()

@@ -1,4 +1,4 @@
-"""The ``toppra`` backend of :mod:`planners.timing`: the library's TOPP-RA on exact constraints.
+"""The ``toppra`` timing backend: the library's TOPP-RA on exact constraints.
 
 :func:`solve` hands one group's discretised problem (the gridpoints, ``q'`` at the
 gridpoints, the constant ``q''`` of every interval, the per-joint limits) to the
@@ -6,7 +6,7 @@ gridpoints, the constant ``q''`` of every interval, the per-joint limits) to the
 computes the controllable sets and the forward pass. The constraints are two
 :class:`toppra.constraint.LinearConstraint` subclasses over precomputed arrays, so the
 library solves *the same* discretised problem as the numba kernel
-(:func:`planners.timing.topp_kernel`):
+(:func:`planners.timing.kernel.topp_kernel`):
 
 - :class:`IntervalVelocityBounds`: ``x_i <= v_k^2 / max(q'_k^2)`` over gridpoints
   ``i - 1, i, i + 1`` (the kernel's bound, which holds between gridpoints), and
@@ -46,7 +46,7 @@ coefficients), not where the problem is infeasible. Fixes here:
    curvature where ``q''`` jumps at a knot, which under-constrains the interval).
 
 With these the library and the kernel agree on every group to 2e-5 of the duration
-(tests/planners/test_timing.py, benchmarks/RESULTS.md). The seidel solver is the only
+(tests/planners/test_timing_backends.py, benchmarks/RESULTS.md). The seidel solver is the only
 one the installed wheel can use (the qpOASES, cvxpy and ECOS wrappers need packages
 that are not installed).
 
@@ -54,6 +54,10 @@ that are not installed).
 controllable set: from rest to rest with ``x >= 0`` that end is 0 (``x = u = 0`` is
 admissible at every stage), which the LP returns anyway, and trims the library's
 per-stage input checks of the forward pass: 35 % less time, the same laws.
+
+:func:`solve_law` is the backend's entry point (:mod:`planners.timing.backends`): it
+checks the library's ``x`` against the discretised constraints
+(:func:`planners.timing.kernel.law_excess`) and turns it into a time law.
 
 Units: degrees, seconds, plan steps.
 """
@@ -67,12 +71,20 @@ import toppra.algorithm as algo
 from toppra.constraint import DiscretizationType, LinearConstraint
 from toppra.interpolator import AbstractGeometricPath
 
-__all__ = ["SEIDEL_SD_MAX", "GridPath", "IntervalVelocityBounds", "IntervalAccelerationRows",
-           "RestToRestTOPPRA", "velocity_bounds", "solve"]
+from planners.timing.backends import TimingProblem
+from planners.timing.kernel import law_excess
+from planners.timing.law import TimeLaw, law_times
+
+__all__ = ["SEIDEL_SD_MAX", "TOPPRA_TOLERANCE", "GridPath", "IntervalVelocityBounds",
+           "IntervalAccelerationRows", "RestToRestTOPPRA", "velocity_bounds", "solve",
+           "solve_law"]
 
 #: Largest path speed handed to the seidel solver, sigma units per s: x = sd^2 stays at
 #: 2.5e7, below the solver's box on x (1e8).
 SEIDEL_SD_MAX = 5.0e3
+#: Largest relative excess of the library's law over the discretised constraints that a
+#: uniform slow-down absorbs (more counts as no solution).
+TOPPRA_TOLERANCE = 1e-3
 
 toppra.setup_logging("ERROR")
 
@@ -259,3 +271,25 @@ def solve(grid: np.ndarray, qd: np.ndarray, qdd: np.ndarray, vmax: np.ndarray,
     x[0] = 0.0
     x[-1] = 0.0
     return x
+
+
+def solve_law(problem: TimingProblem) -> TimeLaw | None:
+    """The law computed by the library, checked (``solver == "toppra"``); None where it finds none.
+
+    The library's forward pass lowers each ``x`` by up to 0.01 % against rounding, so
+    its law can exceed the discretised constraints by a hair where the next ``x`` is
+    bound by the acceleration limit; :func:`planners.timing.kernel.law_excess` measures
+    that, and a law off by at most :data:`TOPPRA_TOLERANCE` is slowed down uniformly by
+    the excess (a worse one counts as no solution).
+    """
+    grid, qd, qdd, vmax, amax = problem.grid, problem.qd, problem.qdd, problem.vmax, problem.amax
+    x = solve(grid, qd, qdd, vmax, amax, problem.sd_cap)
+    if x is None:
+        return None
+    delta = np.diff(grid)
+    rv, ra = law_excess(delta, qd, qdd, vmax, amax, x, float(problem.sd_cap))
+    c = max(1.0, rv, math.sqrt(ra))
+    if not c <= 1.0 + TOPPRA_TOLERANCE:
+        return None
+    law = TimeLaw(grid, np.sqrt(x), np.diff(x) / (2.0 * delta), law_times(grid, x), "toppra")
+    return law.scaled(c) if c > 1.0 else law

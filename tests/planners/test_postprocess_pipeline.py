@@ -1,12 +1,10 @@
-"""The post-processing pipeline (planners/postprocess.py), checked numerically.
+"""The post-processing pipeline (planners/postprocess/pipeline.py), checked numerically.
 
 Every trajectory is checked on its own terms: the firmware's piecewise-linear product
 (slopes, three-point accelerations), its point counts, its distance to the smooth timed
 path it simplifies, its ends, and the independent 2D checker at the stated buffer.
 """
 from __future__ import annotations
-
-import json
 
 import numpy as np
 import pytest
@@ -112,22 +110,6 @@ def test_production_layout_with_fiducials_and_a_small_point_budget():
     traj, rep = postprocess(plan, (spec, lay), 2.0, max_points=16, verifier=check_trajectory)
     assert_firmware_ready(traj, rep, plan, geom, max_points=16)
     assert rep.max_tolerance_used_deg > rep.tolerance_deg       # the budget forced it
-
-
-def test_report_serialises_and_is_deterministic():
-    geom = make_geom(37, 2.0)
-    _, plan = plan_random(geom, 7, step_deg=0.1)
-    a, ra = postprocess(plan, geom, verifier=check_trajectory)
-    b, rb = postprocess(plan, geom, verifier=check_trajectory)
-    assert a.to_dict() == b.to_dict()
-    d = json.loads(json.dumps(ra.to_dict()))
-    for key in ("budget_mm", "duration_s", "max_speed_deg_s", "max_accel_deg_s2",
-                "points_per_axis_median", "points_per_axis_max", "n_groups", "largest_group",
-                "stage_seconds", "verified", "retries", "tolerance_deg", "window_steps"):
-        assert key in d
-    assert d["budget_mm"] == 0.03 and d["verified"] is True
-    assert "timed" not in d
-    assert "verified" in ra.table()
 
 
 # -- grouping ---------------------------------------------------------------------------

@@ -1,0 +1,322 @@
+"""From a stepwise plan to firmware-ready trajectories, re-verified (Sayres 2021 Sect. 6).
+
+Pipeline (:func:`postprocess`):
+
+0. **Pre-simplify** (:func:`planners.simplify.simplify_plan`): each robot's stepwise
+   breakpoints are reduced by RDP within ``presimplify_deg`` on both axes (at equal
+   plan step), so the smoothed path of the reduced plan is within ``presimplify_deg``
+   of the smoothed plan (the running average is an average: it does not increase a
+   sup-norm difference). Markov plans have a breakpoint nearly every step; their
+   one-step wiggles cost knots and gridpoints, and time where the wiggles are wider
+   than the window.
+1. **Smooth** (:mod:`planners.smoothing`): the running-average velocity filter turns
+   each robot's stepwise path into a C1 path ``q_i(s)`` of the plan step ``s``. The
+   default window spans the time an axis needs to reach full speed (``v / a``;
+   :func:`planners.smoothing.window_for_limits`, 200 steps for SDSS-V at 0.1 deg):
+   starts and stops then cost no slow-down, and one-step wiggles vanish.
+2. **Group** (:mod:`planners.timing`): neighbour pairs whose clearance falls below
+   ``interaction_mm`` at some step of the plan are edges; each connected component
+   shares one path parameter, the other robots are timed alone.
+3. **Time** (:mod:`planners.timing`): time-optimal ``s(t)`` per group (TOPP-RA, by the
+   ``toppra`` library or the numba kernel: ``backend``) under the spec's per-axis
+   velocity and acceleration limits, from rest to rest. Groups are
+   aligned on their end: every robot arrives when the slowest group does, as in the
+   plan every robot arrives on its last step.
+4. **Sample and simplify** (:mod:`planners.simplify`): each group is sampled every
+   ``sample_s`` seconds and every axis reduced by Ramer-Douglas-Peucker to at most
+   ``max_points`` points within ``tolerance_deg`` of the samples. The kept points are
+   exact samples of the timed path, so their slopes and three-point accelerations (the
+   definitions of :func:`planners.timing.pl_kinematics`) are within the limits; a group
+   whose measured values exceed them anyway (rounding) is slowed down uniformly.
+5. **Verify**: the ``verifier`` handed in by the caller (the pipeline passes the
+   independent 2D checker of ``validation/``; planners never import it) at ``buffer_mm -
+   budget_mm`` (Eq. 12's sigma_smooth, 0.03 mm by default). A collision between two
+   groups merges them (they met at different ``s``); a collision inside a group, or
+   with a fiducial, halves the smoothing window, the tolerance and the
+   pre-simplification tolerance of the robots involved (they deviate too far from the
+   plan). The touched groups are redone and
+   checked again with their neighbours: the other pairs did not change (up to one
+   common time shift when the longest group changes), so their earlier result stands.
+   At most ``max_retries`` rounds; a trajectory that does not pass is never returned
+   (:class:`models.errors.PlanningError`).
+
+The trajectory starts exactly at the plan's first configuration and ends exactly at
+its last (the plan is given in the executed direction, fold -> targets).
+
+This module is the driver loop; steps 3-4 per group are in
+:mod:`planners.postprocess.groups`, the bookkeeping and repair of step 5 in
+:mod:`planners.postprocess.verification`, the report in :mod:`planners.postprocess.report`.
+Units: mm, degrees, seconds, plan steps.
+"""
+from __future__ import annotations
+
+import time
+from typing import Any, Callable
+
+import numpy as np
+
+from models.array import ArrayGeometry
+from models.errors import PlanningError, SpecError, field_error
+from models.trajectory import Trajectory
+from planners.plan import Plan
+from planners.postprocess.groups import TimedGroup, assemble, time_and_simplify
+from planners.postprocess.report import PostprocessReport, build_report
+from planners.postprocess.verification import (ClearanceLedger, repair, subset_trajectory,
+                                               verify_neighbours)
+from planners.simplify import simplify_plan
+from planners.smoothing import METHODS, SmoothPath, smooth_plan, window_for_limits
+from planners.timing import BACKENDS, DEFAULT_BACKEND, interaction_groups, interaction_pairs
+
+#: ``verifier(trajectory, spec, layout, buffer_mm) -> report`` (see :func:`postprocess`).
+Verifier = Callable[..., Any]
+
+__all__ = ["Verifier", "postprocess", "DEFAULT_BUDGET_MM", "DEFAULT_TOLERANCE_DEG",
+           "DEFAULT_PRESIMPLIFY_DEG", "DEFAULT_INTERACTION_MM", "DEFAULT_MAX_POINTS",
+           "ALIGNMENTS"]
+
+#: sigma_smooth of Sayres 2021 Eq. 12, mm.
+DEFAULT_BUDGET_MM = 0.03
+#: Firmware limit of (angle, time) points per axis (Sayres 2021 Sect. 6).
+DEFAULT_MAX_POINTS = 1024
+#: RDP tolerance, deg. Measured on the 500-robot SDSS-V layout (benchmarks/RESULTS.md):
+#: 0.02 / 0.05 / 0.1 / 0.2 deg give a median of 37 / 22 / 18 / 12 points per axis at the
+#: same fold time and verification rounds. 0.1 deg moves a point of the beta collision
+#: segment by at most (7.4 + 2 * 14.7) mm * 0.1 deg = 0.064 mm, small next to the
+#: smoothing itself; robots near contact get it halved by the verification loop.
+DEFAULT_TOLERANCE_DEG = 0.1
+#: RDP tolerance of the stepwise plan before smoothing, deg (0: off). Measured on the
+#: 500-robot SDSS-V layout, step 0.1 deg, 2.0 mm (benchmarks/RESULTS.md): Markov plans
+#: ~980k breakpoints -> ~200k, post-processing 2.7-3.2 s -> 1.4-1.8 s and folds 2.6-6.9 s
+#: shorter (the wiggles are gone); greedy plans 14-20k -> 3-6k breakpoints, the same
+#: time, folds 0.1-0.4 s shorter. 0.2 deg moves a point of the beta collision segment by at
+#: most 0.13 mm before smoothing; robots that come too close get it halved.
+DEFAULT_PRESIMPLIFY_DEG = 0.2
+#: Pairs whose clearance falls below this at some step of the plan share one path
+#: parameter, mm. 0.3 / 1 / 2 mm gave the same fold times on the 500-robot layout; 1 mm
+#: (half a buffer) needed no group merge in verification there, 0.3 mm one.
+DEFAULT_INTERACTION_MM = 1.0
+ALIGNMENTS = ("end", "start")
+
+
+def _resolve_geometry(geom_or, buffer_mm) -> tuple[ArrayGeometry, float]:
+    if isinstance(geom_or, ArrayGeometry):
+        b = float(geom_or.buffer_mm if buffer_mm is None else buffer_mm)
+        if b != geom_or.buffer_mm:
+            geom_or = ArrayGeometry(geom_or.spec, geom_or.layout, b)
+        return geom_or, b
+    try:
+        spec, layout = geom_or
+    except (TypeError, ValueError):
+        raise field_error(SpecError, "geom", type(geom_or).__name__,
+                          "an ArrayGeometry or a (RobotSpec, Layout) pair", "postprocess") from None
+    b = float(spec.buffer_mm if buffer_mm is None else buffer_mm)
+    return ArrayGeometry(spec, layout, b), b
+
+
+def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
+                budget_mm: float = DEFAULT_BUDGET_MM,
+                max_points: int = DEFAULT_MAX_POINTS,
+                tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
+                presimplify_deg: float = DEFAULT_PRESIMPLIFY_DEG,
+                smoothing: str = "average",
+                window_steps: float | None = None,
+                interaction_mm: float = DEFAULT_INTERACTION_MM,
+                sample_s: float = 0.01,
+                grid_steps: float = 4.0,
+                align: str = "end",
+                backend: str = DEFAULT_BACKEND,
+                max_retries: int = 8,
+                verifier: Verifier | None) -> tuple[Trajectory, PostprocessReport]:
+    """Smooth, time, simplify and re-verify a plan (see the module docstring).
+
+    Parameters
+    ----------
+    plan : Plan in the executed direction; robots in the order of ``geom``
+    geom : ArrayGeometry, or a (RobotSpec, Layout) pair
+    buffer_mm : planning buffer sigma_cb, mm [default: the geometry's / spec's]
+    budget_mm : post-processing share of the buffer (Eq. 12 sigma_smooth); the result
+        is verified at ``buffer_mm - budget_mm``
+    max_points : most (angle, time) points per axis (firmware: 1024)
+    tolerance_deg : RDP tolerance, deg (raised per axis only if ``max_points`` forces it)
+    presimplify_deg : RDP tolerance of the stepwise plan before smoothing, deg (0: off)
+    smoothing, window_steps : method and initial window (plan steps) of
+        :func:`planners.smoothing.smooth_plan` [default window:
+        :func:`planners.smoothing.window_for_limits` of the spec and the plan's step]
+    interaction_mm : clearance below which two robots share one path parameter, mm
+    sample_s : time step of the dense samples that RDP reduces, s
+    grid_steps : longest TOPP-RA grid interval, plan steps
+    align : "end" (all groups arrive together) or "start" (all start at t = 0)
+    backend : "toppra" (default: the library; a group it finds no solution for is timed
+        by the numba kernel and counted in the report's ``timing_fallbacks``) or "numba"
+        (the kernel only: the same trajectories 3-5x faster, e.g. for Markov plans)
+        (:func:`planners.timing.time_group`)
+    max_retries : verification rounds after the first
+    verifier : ``verifier(trajectory, spec, layout, buffer_mm) -> report`` with ``ok``,
+        ``collisions``, ``pair_ids``, ``pair_min_distance_mm``, ... (the 2D checker of
+        ``validation/``); required, so that nobody forgets it: ``None`` skips the
+        verification (timing studies only; the report then says so). When the last
+        round checked the whole trajectory, its report is ``report.final_check``.
+
+    Returns
+    -------
+    (Trajectory, PostprocessReport)
+
+    Raises
+    ------
+    SpecError : a parameter out of range
+    PlanningError : no collision-free result within ``max_retries``
+    """
+    clock = time.perf_counter()
+    geom, buffer_mm = _resolve_geometry(geom, buffer_mm)
+    spec = geom.spec
+    vmax = np.asarray(spec.max_speed_deg_s, dtype=np.float64)
+    amax = np.asarray(spec.max_accel_deg_s2, dtype=np.float64)
+    if window_steps is None:
+        window_steps = window_for_limits(spec.max_speed_deg_s, spec.max_accel_deg_s2, plan.step_deg)
+    _check_args(budget_mm, buffer_mm, max_points, tolerance_deg, smoothing, window_steps,
+                interaction_mm, sample_s, grid_steps, align, backend, max_retries)
+    if not (np.isfinite(presimplify_deg) and 0.0 <= presimplify_deg <= 10.0):
+        raise field_error(SpecError, "presimplify_deg", presimplify_deg, "[0, 10] deg",
+                          "postprocess")
+    if plan.n_robots != geom.n_robots or not np.array_equal(plan.robot_ids, geom.robot_ids):
+        raise field_error(SpecError, "plan.robot_ids", f"{plan.n_robots} robots",
+                          f"the {geom.n_robots} robots of the layout, in layout order", "postprocess")
+    n = plan.n_robots
+    verify_buffer = buffer_mm - budget_mm
+    stages = {"smooth": 0.0, "group": 0.0, "time": 0.0, "simplify": 0.0, "verify": 0.0}
+
+    # 1. smoothing
+    t0 = time.perf_counter()
+    window = np.full(n, float(window_steps))
+    pre = np.full(n, float(presimplify_deg))
+    pad = float(window_steps) / 2.0
+    path, n_smoothed = _smooth(plan, smoothing, window, pad, pre)
+    stages["smooth"] += time.perf_counter() - t0
+
+    # 2. grouping
+    t0 = time.perf_counter()
+    pairs, clear = interaction_pairs(plan, geom, interaction_mm)
+    labels = interaction_groups(n, pairs[clear < interaction_mm])
+    stages["group"] += time.perf_counter() - t0
+
+    tol = np.full(n, float(tolerance_deg))
+    groups: dict[int, TimedGroup] = {}
+    dirty = set(np.unique(labels).tolist())
+    changed = np.ones(n, dtype=bool)           # robots whose trajectory changed since last check
+    id_index = {int(r): i for i, r in enumerate(plan.robot_ids)}
+    start_cfg, end_cfg = plan.start(), plan.end()
+    near = verify_neighbours(geom, verify_buffer) if verifier is not None else None
+    ledger = ClearanceLedger(2.0 * verify_buffer, verify_buffer + spec.fiducial_buffer_mm)
+
+    rounds = retries = merges = tightened = repaired = 0
+    traj = None
+    while True:
+        # 3-4. time, sample, simplify the groups that changed
+        t0 = time.perf_counter()
+        mrange = path.moving_range()
+        for g in sorted(dirty):
+            robots = np.flatnonzero(labels == g)
+            if robots.size:
+                groups[g] = time_and_simplify(path, robots, vmax, amax, tol,
+                                              grid_steps=grid_steps, backend=backend,
+                                              sample_s=sample_s, max_points=max_points,
+                                              moving_range=mrange)
+        for g in list(groups):
+            if not np.any(labels == g):
+                del groups[g]
+        stages["time"] += time.perf_counter() - t0
+        t0 = time.perf_counter()
+        traj = assemble(plan, groups, align, start_cfg, end_cfg)
+        stages["simplify"] += time.perf_counter() - t0
+        if verifier is None:
+            break
+        # 5. verification: everything in the first round, then the robots whose
+        #    trajectory changed and their neighbours (other pairs are unchanged up to a
+        #    common time shift, so their earlier result stands)
+        t0 = time.perf_counter()
+        if rounds == 0:
+            sub = traj
+        else:
+            sel = np.flatnonzero(changed | (near @ changed.astype(np.int64) > 0))
+            sub = subset_trajectory(traj, sel)
+        check = verifier(sub, spec, geom.layout, verify_buffer)
+        ledger.update(check)
+        stages["verify"] += time.perf_counter() - t0
+        rounds += 1
+        changed[:] = False
+        if check.ok:
+            break
+        if retries >= max_retries:
+            c = check.collisions[0]
+            raise PlanningError(
+                f"post-processing: {len(check.collisions)} collision(s) remain at "
+                f"{verify_buffer:.3f} mm after {retries} retries (first: robot {c.robot_a} and "
+                f"{c.kind} {c.other} at t = {c.t_min:.3f} s, {c.min_distance_mm:.4f} mm); "
+                "allowed: a larger budget_mm, a smaller window_steps / tolerance_deg, or a "
+                "larger interaction_mm")
+        retries += 1
+        repaired += len(check.collisions)
+        dirty, touched, n_merged, n_tightened = repair(check.collisions, labels, id_index,
+                                                       window, tol, pre)
+        merges += n_merged
+        tightened += n_tightened
+        if not dirty:
+            c = check.collisions[0]
+            raise PlanningError(
+                f"post-processing: robot {c.robot_a} and {c.kind} {c.other} collide at "
+                f"{verify_buffer:.3f} mm with the smallest window and tolerance; allowed: a "
+                "larger budget_mm")
+        if touched:
+            t0 = time.perf_counter()
+            path, n_smoothed = _smooth(plan, smoothing, window, pad, pre)
+            stages["smooth"] += time.perf_counter() - t0
+        for g in dirty:
+            changed[labels == g] = True
+
+    report = build_report(plan, traj, groups, labels, path,
+                          ledger if verifier is not None else None, spec, buffer_mm, budget_mm,
+                          verify_buffer, smoothing, window_steps, window, tolerance_deg,
+                          max_points, sample_s, interaction_mm, align, backend, rounds, retries,
+                          merges, tightened, repaired, stages, clock)
+    report.presimplify_deg = float(presimplify_deg)
+    report.plan_breakpoints = int(plan.path_step.size)
+    report.smoothed_breakpoints = n_smoothed
+    report.final_check = check if verifier is not None and sub is traj else None
+    return traj, report
+
+
+def _smooth(plan: Plan, method: str, window: np.ndarray, pad: float,
+            pre: np.ndarray) -> tuple[SmoothPath, int]:
+    """Pre-simplify (tolerance ``pre`` per robot) and smooth: (path, breakpoints smoothed)."""
+    src = simplify_plan(plan, pre) if np.any(pre > 0.0) else plan
+    return (smooth_plan(src, method=method, window_steps=window, pad_steps=pad),
+            int(src.path_step.size))
+
+
+def _check_args(budget_mm, buffer_mm, max_points, tolerance_deg, smoothing, window_steps,
+                interaction_mm, sample_s, grid_steps, align, backend, max_retries) -> None:
+    def bad(name, value, allowed):
+        raise field_error(SpecError, name, value, allowed, "postprocess")
+
+    if not (np.isfinite(budget_mm) and 0.0 <= budget_mm < buffer_mm):
+        bad("budget_mm", budget_mm, f"[0, buffer_mm = {buffer_mm}) mm")
+    if int(max_points) != max_points or max_points < 2:
+        bad("max_points", max_points, "an integer >= 2")
+    if not (np.isfinite(tolerance_deg) and tolerance_deg > 0):
+        bad("tolerance_deg", tolerance_deg, "> 0 deg")
+    if smoothing not in METHODS:
+        bad("smoothing", smoothing, ", ".join(METHODS))
+    if not (np.isfinite(window_steps) and 0.0 <= window_steps <= 1e4):
+        bad("window_steps", window_steps, "[0, 1e4] steps")
+    if not (np.isfinite(interaction_mm) and interaction_mm >= 0):
+        bad("interaction_mm", interaction_mm, ">= 0 mm")
+    if not (np.isfinite(sample_s) and 1e-4 <= sample_s <= 1.0):
+        bad("sample_s", sample_s, "[1e-4, 1] s")
+    if not (np.isfinite(grid_steps) and grid_steps > 0):
+        bad("grid_steps", grid_steps, "> 0 steps")
+    if align not in ALIGNMENTS:
+        bad("align", align, ", ".join(ALIGNMENTS))
+    if backend not in BACKENDS:
+        bad("backend", backend, ", ".join(BACKENDS))
+    if int(max_retries) != max_retries or max_retries < 0:
+        bad("max_retries", max_retries, "an integer >= 0")

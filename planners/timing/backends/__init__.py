@@ -1,0 +1,78 @@
+"""Timing backends: solvers of one group's discretised TOPP-RA problem, chosen by name.
+
+Every backend is a module of this package with one function, ``solve_law(problem) ->
+TimeLaw | None``, that solves a :class:`TimingProblem` (the constraints of
+:mod:`planners.timing.kernel` on the group's grid) and returns the time law, or None
+where it finds no solution. All solve the same discretised problem on the same
+gridpoints:
+
+- ``"toppra"`` (default, :mod:`.toppra_library`): the ``toppra`` 0.6 library, its
+  ``TOPPRA`` algorithm and seidel LP solver, given the constraints as precomputed unit
+  rows; it solves every group of every plan measured (~390-460 groups per 500-robot
+  SDSS-V fold, greedy and Markov) with laws equal to the kernel's within 2e-5 of the
+  duration (benchmarks/RESULTS.md, "Timing backends");
+- ``"numba"`` (:mod:`.numba_kernel`): the kernel :func:`planners.timing.kernel.topp_kernel`,
+  about 0.3 ms per group, 10-15x faster than the library for the same laws; it always
+  finds a law, and :func:`planners.timing.time_group` also uses it for groups the library
+  finds no solution for (``TimeLaw.solver == "fallback"``) and for groups too large for
+  the library (``"numba-large"``).
+
+Cost: the library runs its backward and forward passes in Python, about 10-13 us per
+gridpoint plus a solver set-up that copies the rows element by element. On the
+500-robot SDSS-V benchmark (greedy, 2.0 mm, 5 seeds, pre-simplified plans, 2-core
+machine under load 3.7) the whole post-processing takes 1.8-2.6 s with the library
+(0.56-0.69 s with the kernel), within the 3 s budget; Markov plans take 7-8 s with the
+library against 1.4-1.8 s with the kernel (``backend="numba"``).
+
+A backend module is imported on first use (:func:`get_backend`): the ``toppra`` library
+and the matplotlib it imports take ~0.3 s.
+
+Units: plan steps, degrees, seconds.
+"""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Callable, Optional
+
+import numpy as np
+
+from models.errors import SpecError, field_error
+from planners.timing.law import TimeLaw
+
+__all__ = ["BACKENDS", "DEFAULT_BACKEND", "TimingProblem", "get_backend"]
+
+#: Backend name -> module of this package.
+_MODULES = {"toppra": "toppra_library", "numba": "numba_kernel"}
+#: Names of the backends.
+BACKENDS = tuple(_MODULES)
+#: Backend of :func:`planners.timing.time_group` (and of the post-processing pipeline).
+DEFAULT_BACKEND = "toppra"
+
+
+@dataclass(frozen=True)
+class TimingProblem:
+    """One group's discretised time-optimal problem, from rest to rest.
+
+    Attributes
+    ----------
+    grid : (N+1,) gridpoints, plan steps (increasing, N >= 1)
+    qd : (N+1, J) q' at the gridpoints, deg/step (J = 2 joints per robot)
+    qdd : (N, J) q'' on each interval (constant), deg/step^2
+    vmax, amax : (J,) joint limits, deg/s and deg/s^2
+    sd_cap : upper bound on ds/dt where no joint moves, steps/s
+    """
+
+    grid: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    vmax: np.ndarray
+    amax: np.ndarray
+    sd_cap: float
+
+
+def get_backend(name: str) -> Callable[[TimingProblem], Optional[TimeLaw]]:
+    """The ``solve_law`` function of backend ``name`` (one of :data:`BACKENDS`)."""
+    if name not in _MODULES:
+        raise field_error(SpecError, "backend", name, ", ".join(BACKENDS), "time_group")
+    return importlib.import_module(f"{__name__}.{_MODULES[name]}").solve_law

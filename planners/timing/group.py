@@ -1,0 +1,100 @@
+"""Timing one group: its grid, its path derivatives, its backend (:func:`time_group`).
+
+A group of ``k`` robots is one path with ``2k`` joints (alpha, beta of each robot), timed
+by one shared ``s(t)`` (:mod:`planners.timing.grouping` says which robots share one).
+:func:`time_group` builds the group's grid (:func:`planners.timing.grid.group_grid`),
+evaluates ``q'`` at the gridpoints and the constant ``q''`` of each interval, and hands
+the discretised problem to the backend chosen by name
+(:mod:`planners.timing.backends`); with ``"toppra"``, groups larger than
+:data:`TOPPRA_MAX_ROBOTS` and groups the library finds no solution for are timed by the
+numba kernel.
+
+Units: plan steps, degrees, seconds.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from models.errors import PlanningError, SpecError, field_error
+from planners.smoothing import SmoothPath
+from planners.timing.backends import DEFAULT_BACKEND, TimingProblem, get_backend
+from planners.timing.backends import numba_kernel
+from planners.timing.grid import group_grid
+from planners.timing.kernel import SD_CAP
+from planners.timing.law import TimeLaw
+
+__all__ = ["TOPPRA_MAX_ROBOTS", "time_group"]
+
+#: With the toppra backend, groups of more robots than this are timed by the kernel
+#: (solver "numba-large"): the library's Python loops grow with the joints, and a crowded
+#: Markov plan at 3.5 mm on the 547 grid is one group of 547 robots (1094 joints), 35 s
+#: with the library, 1.5 s with the kernel, the same law. SDSS-V groups at 2-2.5 mm have
+#: at most ~7 robots.
+TOPPRA_MAX_ROBOTS = 32
+
+
+def time_group(path: SmoothPath, robots, max_speed, max_accel, *, grid_steps: float = 4.0,
+               backend: str = DEFAULT_BACKEND, limit_margin: float = 0.999,
+               moving_range: np.ndarray | None = None, span=(None, None),
+               sd_cap: float = SD_CAP, straight_steps: float | None = None,
+               fallback: bool = True, toppra_max_robots: int | None = TOPPRA_MAX_ROBOTS) -> TimeLaw:
+    """Time-optimal shared ``s(t)`` of a group of robots (one path, 2 joints per robot).
+
+    Parameters
+    ----------
+    path : SmoothPath
+    robots : (k,) robot indices of the group
+    max_speed, max_accel : (2,) per-axis limits (alpha, beta), deg/s and deg/s^2
+    grid_steps : longest interval between gridpoints where a joint curves, plan steps
+    backend : one of :data:`planners.timing.BACKENDS`: "toppra" (the library) or
+        "numba" (the kernel); both solve the same discretised problem on the same grid
+    limit_margin : the limits are applied times this factor (rounding head-room)
+    moving_range : ``path.moving_range()``, if already computed (saves time per group)
+    span : see :func:`planners.timing.grid.group_grid`
+    sd_cap : upper bound on ds/dt where no joint moves, steps/s
+    straight_steps : longest interval of a cruise where every joint moves linearly
+        [default :data:`planners.timing.grid.STRAIGHT_STEPS`] (see
+        :func:`planners.timing.grid.group_grid`)
+    fallback : with ``backend="toppra"``, time the group with the kernel when the
+        library finds no solution (the law's ``solver`` is then "fallback"); False
+        raises :class:`models.errors.PlanningError` instead
+    toppra_max_robots : with ``backend="toppra"``, larger groups are timed by the kernel
+        (solver "numba-large"); None = no limit
+
+    Returns
+    -------
+    TimeLaw, starting and ending at rest (a static law if the group never moves); its
+    ``solver`` says which solver computed it.
+    """
+    solve_law = get_backend(backend)            # SpecError for an unknown name
+    if not (np.isfinite(grid_steps) and grid_steps > 0):
+        raise field_error(SpecError, "grid_steps", grid_steps, "> 0 steps", "time_group")
+    if straight_steps is not None and not (np.isfinite(straight_steps) and straight_steps > 0):
+        raise field_error(SpecError, "straight_steps", straight_steps, "> 0 steps", "time_group")
+    if not (np.isfinite(sd_cap) and sd_cap > 0):
+        raise field_error(SpecError, "sd_cap", sd_cap, "> 0 steps/s", "time_group")
+    robots = np.atleast_1d(np.asarray(robots, dtype=np.int64))
+    k = robots.size
+    vmax = np.tile(np.asarray(max_speed, dtype=np.float64) * limit_margin, k)
+    amax = np.tile(np.asarray(max_accel, dtype=np.float64) * limit_margin, k)
+    grid = group_grid(path, robots, grid_steps, moving_range, span, straight_steps,
+                      limits=(vmax, amax, sd_cap))
+    if grid.size < 2:
+        return TimeLaw.static(float(grid[0]))
+    qd = np.ascontiguousarray(path.evaluate(grid, robots, 1).reshape(grid.size, 2 * k))
+    mid = 0.5 * (grid[1:] + grid[:-1])
+    qdd = np.ascontiguousarray(path.evaluate(mid, robots, 2).reshape(mid.size, 2 * k))
+    problem = TimingProblem(grid, qd, qdd, vmax, amax, float(sd_cap))
+    if backend == "toppra" and toppra_max_robots is not None and k > toppra_max_robots:
+        return replace(numba_kernel.solve_law(problem), solver="numba-large")
+    law = solve_law(problem)
+    if law is not None:
+        return law
+    if not fallback:
+        raise PlanningError(f"{backend}: no parametrisation of the group of robots "
+                            f"{robots.tolist()}; allowed: fallback=True or backend='numba'")
+    return replace(numba_kernel.solve_law(problem), solver="fallback")
+
+

@@ -1,0 +1,138 @@
+"""Interaction groups: which robots must share one path parameter ``s(t)``.
+
+Robots that come close to each other during the plan must share one ``s(t)``: then at
+every instant they are at the same ``s``, so their relative configuration is the
+smoothed plan's and the planner's clearance holds (up to the smoothing deviation).
+Robots that never come close may be timed apart, which lets a free robot run at full
+speed while a crowded group slows down for its reversals. :func:`interaction_pairs`
+finds every Eq. 4 neighbour pair whose clearance ``D_ij - 2 sigma`` falls below the
+interaction distance at some step of the plan (continuous in the step: it walks the
+plan with strides that the pair cannot close in); those pairs are edges, and
+:func:`interaction_groups` returns the connected components. A group of ``k`` robots is
+one path with ``2k`` joints (:func:`planners.timing.time_group`).
+
+The interaction distance is a heuristic, not a proof: groups timed apart are at
+different ``s`` at the same instant, which the plan never checked. The post-processing
+pipeline therefore re-verifies the result and merges the groups of any pair that comes
+too close (:mod:`planners.postprocess`).
+
+Units: mm, degrees, plan steps. Pairs are (p, 2) robot indices in layout order.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from models.geometry2d import DEG, beta_segment, segment_distance
+
+__all__ = ["interaction_pairs", "interaction_groups"]
+
+
+@njit(cache=True, inline="always")
+def _plan_angles(ptr, steps, angles, i, s, out, col):
+    """Robot i of a plan (CSR breakpoints) at step s, held outside: out[col], out[col+1]."""
+    k0 = ptr[i]
+    k1 = ptr[i + 1]
+    if s <= steps[k0] or k1 - k0 < 2:
+        out[col] = angles[k0, 0]
+        out[col + 1] = angles[k0, 1]
+        return
+    if s >= steps[k1 - 1]:
+        out[col] = angles[k1 - 1, 0]
+        out[col + 1] = angles[k1 - 1, 1]
+        return
+    # the segment [steps[lo], steps[lo + 1]) holding s (the last one for a NaN s)
+    lo = min(k0 + np.searchsorted(steps[k0:k1], s, side="right") - 1, k1 - 2)
+    h = steps[lo + 1] - steps[lo]
+    f = (s - steps[lo]) / h if h > 0.0 else 0.0
+    out[col] = angles[lo, 0] + f * (angles[lo + 1, 0] - angles[lo, 0])
+    out[col + 1] = angles[lo, 1] + f * (angles[lo + 1, 1] - angles[lo, 1])
+
+
+@njit(cache=True)
+def _pair_clearance_below(ptr, steps, angles, n_steps, base_xy, pairs, l_alpha, seg_start,
+                          seg_end, buffer, mu, margin):
+    """Per pair: the smallest clearance found before it drops below ``margin`` (mm).
+
+    Walks the plan's steps with adaptive strides: at clearance ``c`` the pair cannot get
+    below ``margin`` within ``(c - margin) / (2 mu)`` steps, so those are skipped. The
+    walk stops at the first sample below ``margin`` (its value is returned). A value
+    ``>= margin`` is the smallest sample (an upper bound of the minimum) and proves the
+    whole plan stays ``>= margin``; a value ``< margin`` only says "below".
+    """
+    p = pairs.shape[0]
+    out = np.empty(p)
+    q = np.empty(4)
+    for k in range(p):
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        thr = buffer[i] + buffer[j]
+        best = np.inf
+        s = 0.0
+        while True:
+            _plan_angles(ptr, steps, angles, i, s, q, 0)
+            _plan_angles(ptr, steps, angles, j, s, q, 2)
+            a0x, a0y, a1x, a1y = beta_segment(base_xy[i, 0], base_xy[i, 1], q[0], q[1],
+                                              l_alpha, seg_start, seg_end[i])
+            b0x, b0y, b1x, b1y = beta_segment(base_xy[j, 0], base_xy[j, 1], q[2], q[3],
+                                              l_alpha, seg_start, seg_end[j])
+            c = segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - thr
+            if c < best:
+                best = c
+            if c < margin or s >= n_steps:
+                break
+            skip = math.floor((c - margin) / (2.0 * mu))
+            if skip < 1.0:
+                skip = 1.0
+            s = min(s + skip, float(n_steps))
+        out[k] = best
+    return out
+
+
+def interaction_pairs(plan, geom, margin_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """Neighbour pairs and their clearance over the plan, as far as needed, mm.
+
+    Parameters
+    ----------
+    plan : Plan (executed direction), robots in ``geom`` order
+    geom : ArrayGeometry (its Eq. 4 neighbour pairs, buffer and segment)
+    margin_mm : the interaction distance
+
+    Returns
+    -------
+    pairs : (p, 2) int64 robot indices (``geom.pairs``)
+    clearance : (p,) float64, mm. A pair below ``margin_mm`` at some step has a value
+        below ``margin_mm`` (the first such sample). Any other pair has a value
+        ``>= margin_mm`` (its smallest sample) and its clearance ``D_ij(s) - 2 sigma``
+        is ``>= margin_mm`` over the whole plan, continuous in ``s``: every point of a
+        capsule moves at most ``mu = (l_alpha + 2 r) * step`` per step (``r`` the
+        segment end), so a pair closes at most ``2 mu`` per step, and the walk only
+        skips steps that cannot close the gap to ``margin_mm``.
+    """
+    spec = geom.spec
+    pairs = np.ascontiguousarray(geom.pairs, dtype=np.int64)
+    if pairs.shape[0] == 0:
+        return pairs.reshape(0, 2), np.zeros(0)
+    r = float(max(np.max(geom.seg_end), spec.segment_start_mm))
+    mu = (spec.alpha_length_mm + 2.0 * r) * plan.step_deg * DEG
+    cl = _pair_clearance_below(np.ascontiguousarray(plan.path_ptr, dtype=np.int64),
+                               np.ascontiguousarray(plan.path_step, dtype=np.float64),
+                               np.ascontiguousarray(plan.path_angles, dtype=np.float64),
+                               float(plan.n_steps), geom.base_xy, pairs, spec.alpha_length_mm,
+                               spec.segment_start_mm, np.ascontiguousarray(geom.seg_end),
+                               np.ascontiguousarray(geom.buffer), float(mu), float(margin_mm))
+    return pairs, cl
+
+
+def interaction_groups(n: int, edges: np.ndarray) -> np.ndarray:
+    """Connected components of the graph on ``n`` robots with ``edges`` (e, 2): labels (n,)."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+    g = csr_matrix((np.ones(edges.shape[0]), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    _, labels = connected_components(g, directed=False)
+    return labels.astype(np.int64)
+
