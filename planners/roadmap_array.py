@@ -88,8 +88,7 @@ class RoadmapPass:
 def travel_priority(start: np.ndarray, dest: np.ndarray, robots: np.ndarray,
                     vmax: float) -> np.ndarray:
     """Sabater 2018 Sect. 7: robots with the longest direct travel time first (Eq. 5,
-    :func:`planners.roadmap.edge_time`, as :func:`planners.roadmap.default_priority`,
-    without building each robot's black boxes).
+    :func:`planners.roadmap.edge_time`).
 
     start, dest : (n, 2) deg; robots : (m,) indices to order; vmax : deg per step.
     Returns (m,) robot indices (stable: ties keep index order).

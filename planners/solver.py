@@ -38,9 +38,10 @@ from dataclasses import replace as _with
 import numpy as np
 
 from models.array import ArrayGeometry
-from models.errors import SpecError, TargetError, UnknownRobotError
+from models.errors import SpecError, TargetError
 from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
 from planners.continuation import continue_groups
+from planners.offline import apply_offline
 from planners.resolve_search import PathSet, SearchResolveSettings, resolve_groups
 from planners.stepwise import ANGLE_EPS, StepRun, max_displacement, run_array
 from planners.targets import check_targets, random_targets
@@ -219,14 +220,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     spec = geom.spec
     n = geom.n_robots
     targets = np.array(targets, dtype=np.float64, copy=True)
-    movable = np.ones(n, dtype=bool)
-    for rid, ang in (offline or {}).items():
-        hits = np.flatnonzero(geom.robot_ids == int(rid))
-        if hits.size == 0:
-            raise UnknownRobotError(f"offline robot {rid}: unknown robot id; allowed ids: "
-                                    f"{int(geom.robot_ids.min())}..{int(geom.robot_ids.max())}")
-        movable[hits[0]] = False
-        targets[hits[0]] = ang
+    movable = apply_offline(geom, offline, targets)
     check_targets(geom, targets)
     fold = np.tile(np.asarray(spec.fold_deg, dtype=np.float64), (n, 1))
     fold[~movable] = targets[~movable]

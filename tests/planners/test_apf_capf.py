@@ -1,4 +1,4 @@
-"""Cooperative field (Macktoobian 2019 Eq. 5) on top of the APF: planners/capf.py."""
+"""Cooperative field (Macktoobian 2019 Eq. 5) on top of the APF: planners/apf/capf.py."""
 from __future__ import annotations
 
 import numpy as np
@@ -9,8 +9,8 @@ from models.errors import SpecError
 from models.kinematics import forward
 from models.layout import Layout
 from models.robot import load_spec
-from planners.apf import ApfSettings, plan_apf, random_tip_configs
-from planners.capf import CapfSettings, plan_capf, plan_capf_reconfiguration
+from planners.apf import (ApfSettings, CapfSettings, plan_apf, plan_apf_reconfiguration,
+                          random_tip_configs)
 from validation.checker2d import check_trajectory
 
 SDSS = load_spec("sdss-v")
@@ -43,9 +43,11 @@ def test_lambda3_validated(lam3, allowed):
     assert "field 'lambda3'" in str(exc.value) and allowed in str(exc.value)
 
 
-def test_defaults():
+def test_defaults_and_the_old_import_path():
     s = CapfSettings()
     assert (s.lambda1, s.lambda2, s.lambda3) == (1.0, 0.05, 0.03)
+    from planners.capf import CapfSettings as kept     # twin/ and benchmarks/ import it there
+    assert kept is CapfSettings
 
 
 def test_capf_converges_where_apf_stalls():
@@ -54,7 +56,8 @@ def test_capf_converges_where_apf_stalls():
     assert apf.stop_reason == "stalled"
     assert apf.converged.tolist() == [True, False, True, False, True, True, True]
     assert apf.tip_error_mm[3] > 5.0
-    capf = plan_capf(geom, STALL_START, STALL_TARGETS, CapfSettings(model="segment"))
+    capf = plan_apf(geom, STALL_START, STALL_TARGETS, CapfSettings(model="segment"),
+                    algorithm="capf")
     assert capf.algorithm == "capf" and capf.stop_reason == "converged" and capf.complete
     assert check_trajectory(capf.trajectory, SDSS, geom.layout, 2.5).ok
     # robot 1 made way: it went farther from its target than the APF's stall point
@@ -75,7 +78,7 @@ def test_cooperative_term_is_a_vector_field():
     targets = np.array([[180.0, 90.0], [270.0, 90.0]])  # robot 0 already there
     settings = dict(max_time_s=0.05, stall_window_s=10.0)
     apf = plan_apf(geom, start, targets, ApfSettings(**settings))
-    capf = plan_capf(geom, start, targets, CapfSettings(**settings))
+    capf = plan_apf(geom, start, targets, CapfSettings(**settings), algorithm="capf")
     la, lb = DESI.alpha_length_mm, DESI.beta_length_mm
     tip = lambda a: forward(geom.base_xy, np.ascontiguousarray(a), la, lb)[0]  # noqa: E731
     assert np.allclose(tip(apf.final)[0], tip(start)[0])
@@ -91,8 +94,8 @@ def test_desi_random_runs_and_plan():
     rng = np.random.default_rng(1)
     start = random_tip_configs(geom, rng, 2.1)
     targets = random_tip_configs(geom, rng, 3.0)
-    r = plan_capf(geom, start, targets)
+    r = plan_apf(geom, start, targets, CapfSettings(), algorithm="capf")
     assert r.complete and r.min_tip_distance_mm > 2.0 and np.all(r.tip_error_mm < 0.1)
-    plan, res = plan_capf_reconfiguration(geom, targets)
+    plan, res = plan_apf_reconfiguration(geom, targets, CapfSettings(), algorithm="capf")
     assert res.algorithm == "capf" and plan.metrics["algorithm"] == "capf"
     assert plan.metrics["lambda3"] == 0.03 and plan.complete

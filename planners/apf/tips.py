@@ -1,0 +1,117 @@
+"""Seeded random configurations with fiber tips apart: the tip model's starts and targets.
+
+Makarem et al. 2014 (Sect. 6) test their planner on random starts and targets whose
+fiber tips are "at least d apart". :func:`random_tip_configs` draws such
+configurations: right-armed, tips uniform (by area) in the patrol annulus, clear of the
+tips already placed and of the fiducial disks. Only tips count (not the arms' capsules):
+for the segment model use :func:`planners.targets.random_targets` with
+:func:`planners.apf.apf_target_margin_mm`. Angles in deg, lengths in mm.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from models.array import ArrayGeometry
+from models.errors import TargetError
+from models.kinematics import sample_patrol_zone
+from planners.apf.settings import DEG, _num
+
+
+@njit(cache=True)
+def _assign_tips(base, pool, fixed, out, nbr_ptr, nbr_idx, fid_ptr, fid_idx, fid_xy, la, lb,
+                 sep, fid_sep):
+    """For each robot in order, the first pool entry whose tip is > sep from the tips of
+    robots already placed and > fid_sep from fiducial centres. Returns the first robot
+    without a fit, or -1."""
+    n = base.shape[0]
+    placed = fixed.copy()
+    for i in range(n):
+        if fixed[i]:
+            continue
+        ok_any = False
+        for c in range(pool.shape[1]):
+            a = pool[i, c, 0] * DEG
+            b = pool[i, c, 1] * DEG
+            tx = base[i, 0] + la * math.cos(a) + lb * math.cos(a + b)
+            ty = base[i, 1] + la * math.sin(a) + lb * math.sin(a + b)
+            ok = True
+            for kk in range(nbr_ptr[i], nbr_ptr[i + 1]):
+                j = nbr_idx[kk]
+                if not placed[j]:
+                    continue
+                aj = out[j, 0] * DEG
+                bj = out[j, 1] * DEG
+                ux = base[j, 0] + la * math.cos(aj) + lb * math.cos(aj + bj) - tx
+                uy = base[j, 1] + la * math.sin(aj) + lb * math.sin(aj + bj) - ty
+                if ux * ux + uy * uy <= sep * sep:
+                    ok = False
+                    break
+            if ok:
+                for kk in range(fid_ptr[i], fid_ptr[i + 1]):
+                    f = fid_idx[kk]
+                    if (fid_xy[f, 0] - tx) ** 2 + (fid_xy[f, 1] - ty) ** 2 <= fid_sep * fid_sep:
+                        ok = False
+                        break
+            if ok:
+                out[i, 0] = pool[i, c, 0]
+                out[i, 1] = pool[i, c, 1]
+                placed[i] = True
+                ok_any = True
+                break
+        if not ok_any:
+            return i
+    return -1
+
+
+def random_tip_configs(geom: ArrayGeometry, rng: np.random.Generator, min_sep_mm: float, *,
+                       fixed=None, initial=None, pool: int = 256, attempts: int = 20) -> np.ndarray:
+    """Seeded random right-armed configurations whose fiber tips are > min_sep_mm apart.
+
+    Tips uniform (by area) in the patrol annulus; robots are placed in index order, each
+    taking its first draw clear of the tips already placed and of the fiducial disks
+    (``min_sep_mm / 2 + fiducial_buffer_mm``). Only the tips are considered: this is the
+    tip model of Makarem 2014, whose targets are "at least d apart".
+
+    Parameters
+    ----------
+    geom : ArrayGeometry
+    rng : numpy Generator
+    min_sep_mm : float > 0
+    fixed : (n,) bool, rows of ``initial`` to keep (offline robots)
+    initial : (n, 2) deg
+    pool, attempts : draws per robot, whole-draw restarts
+
+    Returns
+    -------
+    (n, 2) float64 deg
+
+    Raises
+    ------
+    TargetError
+        When no clear spot is found for some robot in ``attempts`` draws.
+    """
+    sep = _num(min_sep_mm, "min_sep_mm", 0.0, 1e3, "(0, 1000] mm", where="random_tip_configs")
+    spec = geom.spec
+    n = geom.n_robots
+    la, lb = spec.alpha_length_mm, spec.beta_length_mm
+    ptr, idx = geom.layout.neighbour_csr(2.0 * (la + lb) + sep)
+    fsep = sep / 2.0 + spec.fiducial_buffer_mm
+    fptr, fidx = geom.layout.robot_fiducial_csr(la + lb + fsep)
+    fix = np.zeros(n, dtype=bool) if fixed is None else np.asarray(fixed, dtype=bool)
+    bad = -1
+    for _ in range(max(1, attempts)):
+        out = np.zeros((n, 2)) if initial is None else np.array(initial, dtype=np.float64)
+        draws = sample_patrol_zone(rng, n * pool, la, lb).reshape(n, pool, 2)
+        bad = _assign_tips(geom.base_xy, draws, fix, out, np.asarray(ptr, dtype=np.int64),
+                           np.asarray(idx, dtype=np.int64), np.asarray(fptr, dtype=np.int64),
+                           np.asarray(fidx, dtype=np.int64),
+                           np.ascontiguousarray(geom.fid_xy, dtype=np.float64).reshape(-1, 2),
+                           la, lb, sep, fsep)
+        if bad < 0:
+            return out
+    raise TargetError(f"robot {int(geom.robot_ids[bad])}: no random tip position > {sep} mm from "
+                      f"its neighbours' in {attempts} x {pool} draws; allowed: a smaller "
+                      "'min_sep_mm'")

@@ -1,0 +1,29 @@
+"""Prioritized roadmap planning in state-time (Sabater et al. 2018), for any robot model.
+
+Sabater et al. 2018 ("Roadmap search based motion planning for MIRADAS probe arms",
+JATIS 4(3) 034001) plan arms one at a time in priority order; an arm planned later
+treats the trajectories of the arms planned before it as moving obstacles. For one arm
+(their Algorithm 2) a roadmap of straight joint-space paths is searched cheapest first,
+each path in state-time (position along the path x time). The robot model is reached
+only through two vectorised black boxes per arm, ``forbidden(q)`` and ``collides(q, t)``;
+units are the caller's. Randomness comes from a ``numpy.random.Generator``: same seed,
+same result.
+
+Modules: :mod:`~planners.roadmap.arm` (inputs, settings, outputs),
+:mod:`~planners.roadmap.graph` (the roadmap, Sect. 6.1), :mod:`~planners.roadmap.search`
+(depth-first state-time search, Sect. 6.4, Algorithms 3-6),
+:mod:`~planners.roadmap.sweep` (the same graph, one time layer at a time),
+:mod:`~planners.roadmap.planner` (one arm, Algorithm 2), :mod:`~planners.roadmap.priority`
+(many arms: search over priorities). :mod:`planners.roadmap_array` runs it on a whole
+alpha/beta array.
+"""
+from planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats
+from planners.roadmap.graph import Roadmap, build_roadmap, edge_time
+from planners.roadmap.planner import goal_clear_after, plan_arm
+from planners.roadmap.priority import PrioritySearchResult, priority_search
+
+__all__ = [
+    "Arm", "ArmTrajectory", "PrioritySearchResult", "Roadmap", "RoadmapSettings",
+    "SearchStats", "build_roadmap", "edge_time", "goal_clear_after", "plan_arm",
+    "priority_search",
+]

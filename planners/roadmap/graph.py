@@ -1,0 +1,165 @@
+"""The roadmap of one arm in joint space (Sabater et al. 2018, Sect. 6.1).
+
+Grid vertices outside the forbidden zone, random edges between vertex pairs (each
+vertex in at most one), and the paths ``start -> goal``, ``start -> v -> goal`` and
+``start -> v_i -> v_j -> goal``, all made of straight joint-space edges (the MIRADAS
+motor controllers cannot blend). Paths are tried cheapest first by the estimated travel
+time of Sabater 2018 Eq. 5, ``t_e = max_k |dtheta_k| / vmax_k`` per edge (ties in
+random order). Beyond the paper, ``RoadmapSettings.corner_vertices`` adds the vertices of
+"one joint after the other" and "every joint at full speed" moves
+(:func:`_corner_vertices`), which the grid may miss. Joint and time units are the
+caller's (:mod:`planners.roadmap.arm`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.errors import SpecError, field_error
+from planners.roadmap.arm import Arm, RoadmapSettings
+
+
+@dataclass(frozen=True)
+class Roadmap:
+    """Vertices, random edges, and candidate paths sorted by estimated travel time.
+
+    Attributes
+    ----------
+    vertices : (V, d) float64, feasible grid (and extra) vertices
+    edges : (E, 2) int64, random vertex pairs whose straight line is feasible
+    paths : list of (p, d) float64, start ... goal, cheapest first (not yet checked
+        against ``forbidden``: :func:`plan_arm` checks each edge when it reaches it)
+    est_times : (len(paths),) float64, Eq. 5 summed over each path's edges
+    """
+
+    vertices: np.ndarray
+    edges: np.ndarray
+    paths: list
+    est_times: np.ndarray
+
+
+def edge_time(q0: np.ndarray, q1: np.ndarray, vmax: np.ndarray) -> float:
+    """Sabater 2018 Eq. 5: lower bound of the travel time of a straight edge."""
+    return float(np.max(np.abs(np.asarray(q1) - np.asarray(q0)) / vmax))
+
+
+def _edge_samples(q0: np.ndarray, q1: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Points along the straight edge q0 -> q1, ends included, at most ``step`` apart per joint."""
+    n = int(max(1, math.ceil(float(np.max(np.abs(q1 - q0) / step)) - 1e-9)))
+    f = np.linspace(0.0, 1.0, n + 1)[:, None]
+    return q0[None, :] + f * (q1 - q0)[None, :]
+
+
+class _EdgeFeasibility:
+    """Memoised ``forbidden`` check of straight edges (the path's edges must avoid the ZoA)."""
+
+    def __init__(self, arm: Arm, step: np.ndarray):
+        self.arm = arm
+        self.step = step
+        self.memo: dict[bytes, bool] = {}
+        self.checks = 0
+
+    def ok(self, q0: np.ndarray, q1: np.ndarray) -> bool:
+        key = np.concatenate([q0, q1]).tobytes()
+        hit = self.memo.get(key)
+        if hit is None:
+            pts = _edge_samples(q0, q1, self.step)
+            self.checks += len(pts)
+            hit = not bool(np.any(self.arm.forbidden(pts)))
+            self.memo[key] = hit
+        return hit
+
+
+def build_roadmap(arm: Arm, settings: RoadmapSettings, rng: np.random.Generator,
+                  feasible: _EdgeFeasibility | None = None) -> Roadmap:
+    """Roadmap of one arm (Sabater 2018 Sect. 6.1), paths sorted cheapest first.
+
+    Vertices are the junctions of a ``settings.grid`` grid over ``[arm.lower,
+    arm.upper]`` (plus ``arm.extra_vertices`` and, if asked, the start/goal corners) that
+    are not ``forbidden``. Random edges join disjoint vertex pairs whose straight line is
+    feasible. Paths: direct, one vertex, each random edge in both directions, and the
+    arm's own ``via`` paths. Paths are sorted by Eq. 5 summed over their edges, ties in
+    random order.
+    """
+    d = arm.dim
+    if len(settings.grid) != d:
+        raise field_error(SpecError, "grid", settings.grid, f"{d} integers (one per joint)",
+                          "RoadmapSettings")
+    start = np.asarray(arm.start, dtype=np.float64)
+    goal = np.asarray(arm.goal, dtype=np.float64)
+    vmax = np.asarray(arm.vmax, dtype=np.float64)
+    if feasible is None:
+        feasible = _EdgeFeasibility(arm, _check_step(arm, settings))
+    axes = [np.linspace(lo, hi, int(g)) if int(g) > 1 else np.array([0.5 * (lo + hi)])
+            for lo, hi, g in zip(arm.lower, arm.upper, settings.grid)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, d)
+    extra = [grid]
+    if arm.extra_vertices is not None and len(arm.extra_vertices):
+        extra.append(np.asarray(arm.extra_vertices, dtype=np.float64).reshape(-1, d))
+    if settings.corner_vertices and d > 1:
+        extra.append(_corner_vertices(start, goal, vmax))
+    cand = np.unique(np.concatenate(extra), axis=0)
+    cand = cand[~np.asarray(arm.forbidden(cand), dtype=bool)] if len(cand) else cand
+    same = np.all(np.isclose(cand, start[None]), axis=1) | np.all(np.isclose(cand, goal[None]), axis=1)
+    verts = cand[~same]
+
+    # random edges: disjoint pairs (Sect. 6.1, "a vertex cannot be in more than one edge")
+    edges = []
+    perm = rng.permutation(len(verts))
+    for p in range(0, len(perm) - 1, 2):
+        if len(edges) >= settings.n_random_edges:
+            break
+        i, j = int(perm[p]), int(perm[p + 1])
+        if feasible.ok(verts[i], verts[j]):
+            edges.append((i, j))
+    edges_arr = np.array(edges, dtype=np.int64).reshape(-1, 2)
+
+    paths = [np.stack([start, goal])]
+    paths += [np.stack([start, v, goal]) for v in verts]
+    for i, j in edges:
+        paths.append(np.stack([start, verts[i], verts[j], goal]))
+        paths.append(np.stack([start, verts[j], verts[i], goal]))
+    if arm.via is not None:
+        for mid in arm.via(start, goal):
+            mid = np.asarray(mid, dtype=np.float64).reshape(-1, d)
+            paths.append(np.vstack([start[None, :], mid, goal[None, :]]))
+    est = np.array([sum(edge_time(p[k], p[k + 1], vmax) for k in range(len(p) - 1)) for p in paths])
+    tie = rng.random(len(paths))
+    order = np.lexsort((tie, np.round(est, 9)))
+    return Roadmap(verts, edges_arr, [paths[k] for k in order], est[order])
+
+
+def _corner_vertices(start: np.ndarray, goal: np.ndarray, vmax: np.ndarray) -> np.ndarray:
+    """Vertices of "one joint after the other" and "every joint at full speed" moves.
+
+    * axis corners: ``start`` with some joints already at ``goal`` (2^d - 2 points);
+    * speed corners: where a joint moving at its full speed from ``start`` (or, played
+      backwards, from ``goal``) has finished: the breakpoints of the motion a stepwise
+      planner makes when it moves every joint at full speed towards its destination.
+
+    Returns (k, d) float64, joint units.
+    """
+    d = start.shape[0]
+    out = []
+    for mask in range(1, 2 ** d - 1):
+        c = start.copy()
+        for k in range(d):
+            if mask >> k & 1:
+                c[k] = goal[k]
+        out.append(c)
+    delta = goal - start
+    t_joint = np.abs(delta) / vmax
+    for t in np.unique(t_joint[(t_joint > 0) & (t_joint < t_joint.max())]):
+        step = np.sign(delta) * np.minimum(t_joint, t) * vmax
+        out.append(start + step)        # full speed from the start
+        out.append(goal - step)         # full speed into the goal
+    return np.array(out).reshape(-1, d)
+
+
+def _check_step(arm: Arm, settings: RoadmapSettings) -> np.ndarray:
+    if settings.edge_check_step is not None:
+        return np.full(arm.dim, float(settings.edge_check_step))
+    dt_col = settings.dt if settings.dt_col is None else settings.dt_col
+    return np.asarray(arm.vmax, dtype=np.float64) * dt_col

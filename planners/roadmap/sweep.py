@@ -1,0 +1,168 @@
+"""Earliest-arrival state-time search along one roadmap path, one time layer at a time.
+
+Beyond Sabater et al. 2018 (``RoadmapSettings(search="sweep")``, unlimited ``n_stop``
+only): the state-time graph of their Sect. 6.4 (:mod:`planners.roadmap.search`)
+explored breadth first in time, all reachable positions of a layer checked in one
+black-box call; much faster than node-by-node depth-first search when the arm has to
+wait long or the path fails. The two numba kernels build the layer's queries and
+advance the reachable set; positions are whole ``dt`` steps along the path, times in the
+caller's units.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats, _compress
+from planners.roadmap.search import _PathWalk
+
+
+@njit(cache=True)
+def _sweep_queries(reach, Q, D, frac, static, t_k, dt):
+    """Configurations and times to check for every action of every reachable position.
+
+    reach : (P + 1,) bool; Q : (P + 1, d) positions; D : (P, d) forward steps;
+    frac : (K,) sub-check offsets in (0, 1]. Actions forward, stop, backward (forward
+    only when ``static``). Returns q (n K, d), t (n K,), src (n,) position and act (n,)
+    action of each block of K rows.
+    """
+    P = Q.shape[0] - 1
+    d = Q.shape[1]
+    K = frac.shape[0]
+    n = 0
+    for p in range(P + 1):
+        if reach[p]:
+            n += (p < P) + (0 if static else 1 + (p > 0))
+    q = np.empty((n * K, d))
+    t = np.empty(n * K)
+    src = np.empty(n, dtype=np.int64)
+    act = np.empty(n, dtype=np.int64)
+    b = 0
+    for m in (1, 0, -1):
+        if static and m != 1:
+            break
+        for p in range(P + 1):
+            if not reach[p] or (m == 1 and p == P) or (m == -1 and p == 0):
+                continue
+            src[b] = p
+            act[b] = m
+            for j in range(K):
+                r = b * K + j
+                for c in range(d):
+                    step = 0.0
+                    if m == 1:
+                        step = D[p, c]
+                    elif m == -1:
+                        step = -D[p - 1, c]
+                    q[r, c] = Q[p, c] + frac[j] * step
+                t[r] = t_k + frac[j] * dt
+            b += 1
+    return q, t, src, act
+
+
+@njit(cache=True)
+def _sweep_advance(hit, src, act, K, P):
+    """Positions reached at the next time and the action that reached each (forward
+    first, then stop, then backward: blocks are ordered that way)."""
+    nxt = np.zeros(P + 1, dtype=np.bool_)
+    how = np.zeros(P + 1, dtype=np.int8)
+    for b in range(src.shape[0]):
+        ok = True
+        for j in range(K):
+            if hit[b * K + j]:
+                ok = False
+                break
+        if ok:
+            p2 = src[b] + act[b]
+            if not nxt[p2]:
+                nxt[p2] = True
+                how[p2] = act[b]
+    return nxt, how
+
+
+class _PathSweep(_PathWalk):
+    """Earliest-arrival search along one roadmap path, one time layer at a time.
+
+    Beyond the paper (``RoadmapSettings.search = "sweep"``, unlimited ``n_stop`` only):
+    the same state-time graph as :class:`_PathSearch` (positions ``i / n_seg`` along
+    each edge, actions backward / stop / forward of one ``dt``, collisions every
+    ``dt_col``), explored breadth first in time: the set of positions reachable at
+    time ``t_start + k dt`` is advanced to ``k + 1`` by checking the three actions of
+    every reachable position in one black-box call. Each (position, time) is checked
+    once, as in the depth-first search, but per time layer instead of per node, which
+    makes hard searches (long waits, dead ends) much cheaper; the trajectory reaches
+    the goal at the earliest time the graph allows. The edges of the path are joined
+    into one sequence of positions (a vertex is crossed without a stop).
+    """
+
+    def __init__(self, arm: Arm, path: np.ndarray, settings: RoadmapSettings,
+                 stats: SearchStats, goal_clear_after: float):
+        super().__init__(arm, path, settings, stats, goal_clear_after)
+        pts = [np.asarray(path[0], dtype=np.float64)[None, :]]
+        self.vertex_pos = []
+        for e, n in enumerate(self.n_seg):
+            f = np.arange(1, n + 1)[:, None] / n
+            pts.append(path[e][None, :] + f * (path[e + 1] - path[e])[None, :])
+            self.vertex_pos.append(sum(len(p) for p in pts) - 1)
+        self.Q = np.vstack(pts)                      # (P + 1, d) configurations
+        self.D = np.diff(self.Q, axis=0)             # (P, d) forward step from each position
+
+    def run(self) -> ArmTrajectory | None:
+        s = self.s
+        P = len(self.Q) - 1
+        k_static, k_max = self.time_bounds()
+        if k_static is not None:
+            k_bound = k_static + P + 1            # after t_static only forward moves help
+            k_max = k_bound if k_max is None else min(k_max, k_bound)
+        if self.start_collides():
+            return None
+        reach = np.zeros(P + 1, dtype=bool)
+        reach[0] = True
+        came: list[np.ndarray] = []                 # per layer: action that reached each position
+        frac = self.frac
+        k = 0
+        while True:
+            if reach[P] and self.time(k) > self.goal_clear_after - 1e-12:
+                return self._trajectory(came, k)
+            if k_max is not None and k >= k_max:
+                return None
+            self.stats.nodes += int(reach.sum())
+            if s.max_nodes is not None and self.stats.nodes >= s.max_nodes:
+                self.stats.budget_exhausted = True
+                return None
+            static = k_static is not None and k >= k_static
+            q_all, t_all, src, act = _sweep_queries(reach, self.Q, self.D, frac, static,
+                                                     self.time(k), s.dt)
+            self.stats.checks += t_all.size
+            hit = np.asarray(self.arm.collides(q_all, t_all), dtype=np.bool_)
+            nxt, how = _sweep_advance(hit, src, act, self.n_sub, P)
+            if not nxt.any():
+                return None
+            came.append(how)
+            reach = nxt
+            k += 1
+
+    def _trajectory(self, came: list[np.ndarray], k_end: int) -> ArmTrajectory:
+        P = len(self.Q) - 1
+        pos = [P]
+        acts = []
+        p = P
+        for k in range(k_end, 0, -1):
+            m = int(came[k - 1][p])
+            acts.append(m)
+            p -= m
+            pos.append(p)
+        pos.reverse()
+        acts.reverse()
+        times = self.time(0) + self.s.dt * np.arange(len(pos))
+        configs = self.Q[np.array(pos)]
+        ns = 0
+        prev = 0
+        for m in acts:
+            if prev != 0 and m != prev:
+                ns += 1
+            prev = m
+        crossed = sum(1 for v in self.vertex_pos[:-1] if v in set(pos))
+        n_go = sum(1 for m in acts if m != 0)
+        times, configs = _compress(times, configs)
+        return ArmTrajectory(times, configs, self.path.copy(), ns + crossed, n_go, len(acts) - n_go)
