@@ -15,41 +15,8 @@ import numpy as np
 
 from models.array import ArrayGeometry
 from models.errors import TargetError, UnknownRobotError
+from planners.targets import check_limits
 
-
-def check_angles(geom: ArrayGeometry, angles, what: str) -> np.ndarray:
-    """``angles`` as an (n, 2) float64 array, after checking its shape and joint limits.
-
-    Parameters
-    ----------
-    geom : ArrayGeometry (its spec gives the alpha / beta limits, deg)
-    angles : (n, 2) array-like, deg
-    what : name of the configuration in error messages (e.g. "start", "targets")
-
-    Raises
-    ------
-    TargetError
-        ``"<what>: shape (3, 2); allowed: (7, 2) ..."`` or, for the first NaN or
-        out-of-limit angle, ``"<what>: robot 12: field 'beta' = 400.0; allowed: [lo, hi] deg"``.
-    """
-    a = np.asarray(angles, dtype=np.float64)
-    if a.shape != (geom.n_robots, 2):
-        raise TargetError(f"{what}: shape {a.shape}; allowed: ({geom.n_robots}, 2) (one (alpha, "
-                          "beta) row per robot, deg)")
-    _check_limits(geom, a, geom.robot_ids, what)
-    return a
-
-
-def _check_limits(geom: ArrayGeometry, a: np.ndarray, ids, what: str) -> None:
-    """Raise TargetError for the first NaN or out-of-limit angle of ``a`` (m, 2) deg."""
-    spec = geom.spec
-    for axis, col, (lo, hi) in (("alpha", 0, spec.alpha_limits_deg), ("beta", 1, spec.beta_limits_deg)):
-        v = a[:, col]
-        bad = np.flatnonzero(~np.isfinite(v) | (v < lo) | (v > hi))
-        if bad.size:
-            k = int(bad[0])
-            raise TargetError(f"{what}: robot {int(ids[k])}: field '{axis}' = "
-                              f"{float(v[k])!r}; allowed: [{lo}, {hi}] deg")
 
 
 def apply_offline(geom: ArrayGeometry, offline: Mapping[int, Sequence[float]] | None,
@@ -93,7 +60,7 @@ def apply_offline(geom: ArrayGeometry, offline: Mapping[int, Sequence[float]] | 
         a = np.asarray(ang, dtype=np.float64)
         if a.shape != (2,):
             raise TargetError(f"offline robot {rid}: angles {ang!r}; allowed: (alpha, beta) deg")
-        _check_limits(geom, a[None, :], [rid], "offline")
+        check_limits(geom, a[None, :], [rid], "offline")
         rows[k] = a
     for k, a in rows.items():       # all checked: nothing is half-written on an error
         movable[k] = False

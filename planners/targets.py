@@ -146,20 +146,26 @@ def check_angles(geom, angles, what: str | None = None) -> np.ndarray:
     allowed range. ``what`` names the array in the messages ("start", ...); None: the
     messages of :func:`check_targets`.
     """
-    spec = geom.spec
     a = np.asarray(angles, dtype=np.float64)
     if a.shape != (geom.n_robots, 2):
         raise TargetError(f"{what or 'targets'}: shape {a.shape}; allowed: ({geom.n_robots}, 2) "
                           "(one (alpha, beta) row per robot)")
+    check_limits(geom, a, geom.robot_ids, what)
+    return a
+
+
+def check_limits(geom, angles: np.ndarray, ids, what: str | None = None) -> None:
+    """Raise TargetError for the first NaN or out-of-limit angle of ``angles`` (m, 2) deg,
+    whose rows belong to robots ``ids`` (m,); ``what`` prefixes the message."""
+    spec = geom.spec
     prefix = f"{what}: " if what else ""
     for axis, col, (lo, hi) in (("alpha", 0, spec.alpha_limits_deg), ("beta", 1, spec.beta_limits_deg)):
-        v = a[:, col]
+        v = angles[:, col]
         bad = np.flatnonzero(~np.isfinite(v) | (v < lo) | (v > hi))
         if bad.size:
             k = int(bad[0])
-            raise TargetError(f"{prefix}robot {int(geom.robot_ids[k])}: field '{axis}' = "
+            raise TargetError(f"{prefix}robot {int(ids[k])}: field '{axis}' = "
                               f"{float(v[k])!r}; allowed: [{lo}, {hi}] deg")
-    return a
 
 
 def _first_overlap(clearance: np.ndarray, pairs: np.ndarray):

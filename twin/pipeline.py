@@ -33,6 +33,7 @@ from models.errors import PlanningError, RfpError
 from models.layout import Layout
 from models.robot import RobotSpec, load_spec
 from models.trajectory import Trajectory
+from planners.offline import apply_offline
 from planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
 from planners.solver import ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings, plan_reconfiguration
 from planners.stepwise import max_displacement
@@ -118,8 +119,7 @@ class PlanOptions:
 
     def field_settings(self):
         """ApfSettings / CapfSettings on the beta segments (field planners only)."""
-        from planners.apf import ApfSettings
-        from planners.capf import CapfSettings
+        from planners.apf import ApfSettings, CapfSettings
 
         if self.algorithm == "capf":
             return CapfSettings(model="segment", gain=self.apf_gain, lambda3=self.lambda3)
@@ -180,14 +180,9 @@ class Reconfiguration:
     def random_targets(self, rng: np.random.Generator) -> np.ndarray:
         """Seeded random right-armed targets, mutually clear, (n_robots, 2) deg; offline
         robots keep their parked angles."""
-        n = self.geom.n_robots
-        fixed = np.zeros(n, dtype=bool)
-        initial = np.zeros((n, 2))
-        for rid, ang in self.offline.items():
-            k = self.layout.robot_index(rid)
-            fixed[k] = True
-            initial[k] = ang
-        return random_targets(self.geom, rng, fixed=fixed, initial=initial,
+        initial = np.zeros((self.geom.n_robots, 2))
+        movable = apply_offline(self.geom, self.offline, initial)
+        return random_targets(self.geom, rng, fixed=~movable, initial=initial,
                               margin_mm=self.target_margin_mm())
 
     def read_targets(self, path: str | Path) -> np.ndarray:

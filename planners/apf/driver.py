@@ -30,7 +30,8 @@ from planners.apf.field import _start_violation
 from planners.apf.kernel import run_apf
 from planners.apf.result import STOP_REASONS, ApfResult, _trajectory, apf_plan
 from planners.apf.settings import DEG, ApfSettings
-from planners.offline import apply_offline, check_angles
+from planners.offline import apply_offline
+from planners.targets import check_angles
 from planners.plan import Plan
 
 

@@ -8,7 +8,7 @@ from models.array import ArrayGeometry
 from models.errors import TargetError, UnknownRobotError
 from models.layout import Layout
 from models.robot import load_spec
-from planners.offline import apply_offline, check_angles
+from planners.offline import apply_offline
 
 SPEC = load_spec("sdss-v")
 
@@ -54,14 +54,3 @@ def test_config_of_the_wrong_shape_is_refused():
         apply_offline(geom, {12: (10.0, 170.0)}, np.zeros((3, 2)))
 
 
-def test_check_angles_names_shape_robot_field_and_range():
-    geom = geom7()
-    good = np.tile([10.0, 170.0], (geom.n_robots, 1))
-    out = check_angles(geom, good.tolist(), "targets")
-    assert out.dtype == np.float64 and out.shape == (7, 2)
-    with pytest.raises(TargetError, match=r"start: shape \(7,\); allowed: \(7, 2\)"):
-        check_angles(geom, good[:, 0], "start")
-    bad = good.copy()
-    bad[3, 1] = -5.0
-    with pytest.raises(TargetError, match=r"targets: robot 13: field 'beta' = -5.0; allowed: \["):
-        check_angles(geom, bad, "targets")
