@@ -20,8 +20,9 @@ from models.errors import SpecError, TrajectoryError, UnknownRobotError
 from models.layout import Layout
 from models.robot import load_spec
 from models.trajectory import Trajectory
-from validation.checker2d import (CheckReport, Collision, _segment_distance, check_trajectory,
+from validation.checker2d import (CheckReport, Collision, check_trajectory,
                                   coarse_grid, segment_distance_np, speed_bounds_mm_s)
+from validation.numerics import segment_distance as _segment_distance
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = load_spec("sdss-v")
