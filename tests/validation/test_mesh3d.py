@@ -23,8 +23,10 @@ from models.layout import Layout
 from models.robot import load_spec
 from models.trajectory import Trajectory
 from validation.checker2d import check_trajectory, segment_distance_np
-from validation.mesh3d import (Check3DReport, LinkModels, RobotPair, _Exact, _poly_lb,
+from validation.mesh3d import (Check3DReport, LinkModels, RobotPair,
                                fit_capsule, link_pose, validate_trajectory)
+from validation.mesh3d.bounds import poly_lower_bound as _poly_lb
+from validation.mesh3d.exact import ExactDistance as _Exact
 
 SPEC = load_spec("sdss-v")
 GEOM = geometry_for_spec(SPEC)
