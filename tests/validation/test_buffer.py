@@ -17,8 +17,9 @@ from models.errors import SpecError
 from models.geometry import geometry_for_spec
 from models.layout import Layout
 from models.robot import load_spec
-from validation.buffer import (_required, calibrate_buffer, neighbour_directions,
+from validation.buffer import (calibrate_buffer, neighbour_directions,
                                pair_segment_distances, write_report)
+from validation.buffer.model2d import required_buffer as _required
 from validation.checker2d import segment_distance_np
 from validation.mesh3d import LinkModels, RobotPair
 
