@@ -317,8 +317,16 @@ def plain_fields(obj) -> dict:
 _PLAIN = {"str": str, "int": int, "float": float, "bool": bool}
 
 
-def collision_table(collisions, columns) -> list[str]:
-    """Header line and one line per collision for a terminal table.
+class PlainRecord:
+    """Mixin for a dataclass of plain fields: ``to_dict`` is :func:`plain_fields`."""
+
+    def to_dict(self) -> dict:
+        return plain_fields(self)
+
+
+def collision_table(summary: list[str], collisions, columns) -> str:
+    """Terminal text: the ``summary`` lines, then (if there are collisions) a header
+    line and one line per collision.
 
     ``columns``: ``(title, attribute, spec)`` with ``spec`` a format spec such as
     ``"<9"`` or ``">11.5f"`` (the title takes its alignment and width); a
@@ -327,8 +335,10 @@ def collision_table(collisions, columns) -> list[str]:
     def width(spec: str) -> str:
         return spec.split(".")[0]
 
-    lines = ["".join(f"{title:{width(spec)}}" for title, _, spec in columns)]
+    lines = list(summary)
+    if collisions:
+        lines.append("".join(f"{title:{width(spec)}}" for title, _, spec in columns))
     for c in collisions:
         lines.append("".join(f"{getattr(c, attr):{spec}}" for _, attr, spec in columns)
                      + ("  (bound)" if c.conservative else ""))
-    return lines
+    return "\n".join(lines)

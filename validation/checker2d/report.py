@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from validation.numerics import collision_table, json_float, plain_fields
+from validation.numerics import PlainRecord, collision_table, json_float
 
 #: Columns of the terminal table of collisions: (title, attribute, format).
 _COLUMNS = (("kind", "kind", "<9"), ("robot", "robot_a", ">7"), ("other", "other", ">7"),
@@ -20,7 +20,7 @@ _COLUMNS = (("kind", "kind", "<9"), ("robot", "robot_a", ">7"), ("other", "other
 
 
 @dataclass
-class Collision:
+class Collision(PlainRecord):
     """One contiguous time interval in which a pair is in collision.
 
     Attributes
@@ -55,9 +55,6 @@ class Collision:
     min_distance_mm: float
     threshold_mm: float
     conservative: bool = False
-
-    def to_dict(self) -> dict:
-        return plain_fields(self)
 
 
 @dataclass
@@ -133,12 +130,9 @@ class CheckReport:
     def table(self) -> str:
         """A short plain-text table for the terminal."""
         clear = "-" if not math.isfinite(self.min_clearance_mm) else f"{self.min_clearance_mm:.4f}"
-        lines = [
+        return collision_table([
             f"2D dense check: {'OK' if self.ok else 'COLLISION'}  buffer {self.buffer_mm} mm, "
             f"{self.n_robots} robots, {self.n_pairs} robot pairs, {self.n_fiducial_pairs} "
             f"fiducial pairs, {self.duration_s:.3f} s, {self.n_samples} samples, "
             f"min clearance {clear} mm, {self.seconds:.3f} s",
-        ]
-        if self.collisions:
-            lines += collision_table(self.collisions, _COLUMNS)
-        return "\n".join(lines)
+        ], self.collisions, _COLUMNS)

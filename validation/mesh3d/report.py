@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from validation.numerics import collision_table, json_float, plain_fields
+from validation.numerics import PlainRecord, collision_table, json_float
 
 #: Columns of the terminal table of collisions: (title, attribute, format).
 _COLUMNS = (("kind", "kind", "<9"), ("robot", "robot_a", ">7"), ("link", "link_a", ">7"),
@@ -20,7 +20,7 @@ _COLUMNS = (("kind", "kind", "<9"), ("robot", "robot_a", ">7"), ("link", "link_a
 
 
 @dataclass
-class Collision3D:
+class Collision3D(PlainRecord):
     """One contiguous time interval in which two links are within ``min_gap_mm``.
 
     Link ``link_a`` of robot ``robot_a`` and ``link_b`` of ``other`` (a robot, or a
@@ -44,9 +44,6 @@ class Collision3D:
     t_min: float
     min_distance_mm: float
     conservative: bool = False
-
-    def to_dict(self) -> dict:
-        return plain_fields(self)
 
 
 @dataclass
@@ -170,7 +167,7 @@ class Check3DReport:
         md = "-" if not math.isfinite(self.min_distance_mm) else f"{self.min_distance_mm:.4f}"
         kinds = ", ".join(f"{k} {v:.3f}" for k, v in sorted(self.link_kind_min_mm.items())
                           if math.isfinite(v))
-        lines = [
+        return collision_table([
             f"3D check (FCL): {'OK' if self.ok else 'COLLISION'}  {self.n_robots} robots, "
             f"{self.n_fiducials} fiducials, {self.n_pairs} pairs ({self.n_link_pairs} link "
             f"pairs), {self.duration_s:.3f} s, min distance {md} mm (gap {self.min_gap_mm} mm)",
@@ -178,7 +175,4 @@ class Check3DReport:
             f"  {self.n_capsule_evals} capsule bounds, {self.n_exact_evals} exact distances "
             f"({self.n_fcl_calls} FCL calls); broadphase {self.seconds_broadphase:.3f} s, "
             f"exact {self.seconds_exact:.3f} s, total {self.seconds:.3f} s",
-        ]
-        if self.collisions:
-            lines += collision_table(self.collisions, _COLUMNS)
-        return "\n".join(lines)
+        ], self.collisions, _COLUMNS)
