@@ -23,6 +23,11 @@ Per axis, :func:`axis_csr` gives ``ptr (n + 1,)``, ``times (K,)``, ``angles (K,)
 and ``rate (K,)``: the |slope| (rad/s) of the breakpoint segment that starts at each
 breakpoint (0 for the last one and for zero-length segments); robot ``i`` owns
 ``ptr[i]:ptr[i + 1]``. Outside its breakpoints a robot holds its first / last angle.
+
+Numba's on-disk cache (``cache=True``) is invalidated only by changes to the file that
+defines a cached function: after editing a kernel or a constant here, delete the
+``validation/**/__pycache__/*.nbi`` / ``*.nbc`` files so that the kernels which inline
+it are compiled again.
 """
 from __future__ import annotations
 
