@@ -47,7 +47,7 @@ def uniform_configurations(spec: RobotSpec, n: int, seed: int) -> np.ndarray:
 
 
 def climb(objective, classify, ang0: np.ndarray, dir0: np.ndarray, rng, rounds: int,
-           batch: int, step_deg: float = 1.0):
+          batch: int, step_deg: float = 1.0):
     """Local search raising ``objective`` while staying in 3D collision.
 
     From each start (rows of ``ang0`` (k, 4) deg, directions ``dir0``), every round
@@ -95,7 +95,7 @@ def climb(objective, classify, ang0: np.ndarray, dir0: np.ndarray, rng, rounds: 
 
 
 def distinct_top(values: np.ndarray, ang: np.ndarray, dirs: np.ndarray, k: int,
-                  cell_deg: float = 5.0) -> np.ndarray:
+                 cell_deg: float = 5.0) -> np.ndarray:
     """Indices of the ``k`` largest values whose configurations differ (5-deg cells)."""
     out, seen = [], set()
     for i in np.argsort(values)[::-1]:

@@ -163,7 +163,7 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
     n_cap = 0
     if n_lp:
         cmin, tcmin, cert, ne = capsule_min(*kern, *traj_a, *geo, vglob, vmean, t_lo, t_hi,
-                                             coarse, TIGHT_MM, res, thr, tol, rel)
+                                            coarse, TIGHT_MM, res, thr, tol, rel)
         n_cap += int(ne)
     else:
         cmin = tcmin = cert = np.zeros(0)
@@ -184,7 +184,7 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
 
     def eval_exact(qp: np.ndarray, qt: np.ndarray) -> np.ndarray:
         poses, bounds = poses_and_bounds(np.asarray(qp, dtype=np.int64),
-                                          np.asarray(qt, dtype=np.float64), *bnd_args)
+                                         np.asarray(qt, dtype=np.float64), *bnd_args)
         out = np.empty(len(qp))
         for k in range(len(qp)):
             p = int(qp[k])
@@ -230,7 +230,7 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
         done = (cert > thr) & (cert >= cut - 1e-9 * (1.0 + np.abs(cut)))
         sel = np.flatnonzero(~done).astype(np.int64)
         rows, ne = capsule_suspects(*kern, *traj_a, *geo, vglob, vmean, t_lo, t_hi, coarse,
-                                     TIGHT_MM, res, thr, cut, tolp, sel)
+                                    TIGHT_MM, res, thr, cut, tolp, sel)
         n_cap += int(ne)
     else:
         rows = np.zeros((0, 6))
