@@ -1,7 +1,33 @@
 """Is a plan safe against the geometry? Independent of ``planners/`` algorithms.
 
+:mod:`validation.checker2d` checks a trajectory densely against the 2D capsule model,
+:mod:`validation.mesh3d` against the 3D collision meshes (FCL), and
+:mod:`validation.buffer` calibrates the 2D buffer against the meshes;
+:mod:`validation.numerics` holds what they share. The public names below are loaded
+on first use, so ``import validation.checker2d`` does not pull in FCL or trimesh.
+
 Modules here may import ``models`` (the instrument and the trajectory data type,
-:mod:`models.trajectory`), never ``planners`` nor the planner's distance
-code (:mod:`models.geometry2d`): a checker that shares code with what it checks proves
+:mod:`models.trajectory`), never ``planners`` nor the planner's distance code
+(:mod:`models.geometry2d`): a checker that shares code with what it checks proves
 nothing.
 """
+from importlib import import_module
+
+_EXPORTS = {
+    "check_trajectory": "checker2d", "CheckReport": "checker2d", "Collision": "checker2d",
+    "validate_trajectory": "mesh3d", "Check3DReport": "mesh3d", "Collision3D": "mesh3d",
+    "PairDistance": "mesh3d", "LinkModels": "mesh3d", "RobotPair": "mesh3d",
+    "calibrate_buffer": "buffer", "write_report": "buffer", "BufferCalibration": "buffer",
+}
+
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        return getattr(import_module(f"validation.{_EXPORTS[name]}"), name)
+    raise AttributeError(f"module 'validation' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted([*globals(), *__all__])

@@ -1,4 +1,4 @@
-"""Tests of the collision-buffer calibration (validation/buffer.py).
+"""Tests of the buffer calibration (validation/buffer/calibrate.py).
 
 The SDSS-V preset's beta arm is a 1.5 mm half-wide bar with straight sides along the
 2D segment [0, 15] mm and a rounded rear end centred on the beta axis, so two bars touch
@@ -7,67 +7,17 @@ smallest safe buffer is 1.5 mm, the mesh's envelope.
 """
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
 import pytest
 
 from models.errors import SpecError
-from models.geometry import geometry_for_spec
-from models.layout import Layout
-from models.robot import load_spec
-from validation.buffer import (_required, calibrate_buffer, neighbour_directions,
-                               pair_segment_distances, write_report)
-from validation.checker2d import segment_distance_np
-from validation.mesh3d import LinkModels, RobotPair
+from tests.validation.conftest import SMALL, SPEC, sdss_geometry, sdss_models
+from validation.buffer import calibrate_buffer, pair_segment_distances
+from validation.mesh3d import RobotPair
 
-SPEC = load_spec("sdss-v")
-GEOM = geometry_for_spec(SPEC)
-SMALL = dict(n_samples=4096, n_draws=40, n_scatter=200, mc_rounds=6, seed=3)
-
-
-@pytest.fixture(scope="module")
-def cal():
-    return calibrate_buffer(SPEC, GEOM, **SMALL)
-
-
-def test_neighbour_directions_of_hex_and_real_layouts():
-    pitch, dirs = neighbour_directions(None, 22.4)
-    assert pitch == 22.4 and list(dirs) == [0.0, 60.0, 120.0]
-    pitch, dirs = neighbour_directions(Layout.hex_grid(3, 10.4), 10.4)
-    assert pitch == pytest.approx(10.4) and list(dirs) == [0.0, 60.0, 120.0]
-    pitch, dirs = neighbour_directions(Layout.sdss_v_fps(), 22.4)
-    assert pitch == pytest.approx(22.4, abs=0.1)
-    for want in (0.0, 60.0, 120.0):
-        assert np.min(np.abs((dirs - want + 90) % 180 - 90)) < 1.0
-
-
-def test_pair_segment_distances_match_the_2d_checker_segments():
-    rng = np.random.default_rng(0)
-    ang = rng.uniform(0, 360, (500, 4))
-    off = np.array([22.4 * math.cos(1.0), 22.4 * math.sin(1.0)])
-    a = np.deg2rad(ang)
-    la, s1 = SPEC.alpha_length_mm, SPEC.segment_end(2.5)
-    e0 = la * np.column_stack([np.cos(a[:, 0]), np.sin(a[:, 0])])
-    e1 = off + la * np.column_stack([np.cos(a[:, 2]), np.sin(a[:, 2])])
-    u0 = np.column_stack([np.cos(a[:, 0] + a[:, 1]), np.sin(a[:, 0] + a[:, 1])])
-    u1 = np.column_stack([np.cos(a[:, 2] + a[:, 3]), np.sin(a[:, 2] + a[:, 3])])
-    ref = segment_distance_np(e0, e0 + s1 * u0, e1, e1 + s1 * u1)
-    np.testing.assert_allclose(pair_segment_distances(SPEC, off, ang), ref, atol=1e-9)
-
-
-def test_required_buffer_sits_on_the_2d_boundary_for_a_buffer_dependent_segment():
-    prod = load_spec("sdss-v-production")
-    ang = np.random.default_rng(1).uniform(0, 360, (300, 4))
-    req = _required(prod, (22.4, 0.0), ang, 22.4)
-    inside = req < 22.4
-    assert inside.sum() > 50
-    for b, c in zip(req[inside][:40], ang[inside][:40]):
-        d = pair_segment_distances(prod, (22.4, 0.0), c[None], float(b))[0]
-        assert d == pytest.approx(2 * b, abs=1e-6)
-    np.testing.assert_allclose(_required(SPEC, (22.4, 0.0), ang, 22.4),
-                               np.minimum(pair_segment_distances(SPEC, (22.4, 0.0), ang) / 2, 22.4))
+GEOM = sdss_geometry()
 
 
 def test_smallest_safe_buffer_is_the_bar_half_width_and_verified(cal):
@@ -78,7 +28,7 @@ def test_smallest_safe_buffer_is_the_bar_half_width_and_verified(cal):
     ang = np.array([[w["alpha_a"], w["beta_a"], w["alpha_b"], w["beta_b"]]])
     off = 22.4 * np.array([math.cos(math.radians(w["direction_deg"])),
                            math.sin(math.radians(w["direction_deg"]))])
-    assert RobotPair(LinkModels.from_geometry(GEOM), off).collides(ang)[0]
+    assert RobotPair(sdss_models(), off).collides(ang)[0]
     assert pair_segment_distances(SPEC, off, ang)[0] == pytest.approx(2 * cal.safe_buffer_mm)
     assert cal.safe_buffer_mm >= cal.safe_buffer_uniform_mm
 
@@ -128,20 +78,6 @@ def test_a_housing_that_reaches_the_neighbour_cannot_be_covered_by_the_2d_buffer
     c = calibrate_buffer(SPEC, big, **dict(SMALL, n_draws=5, n_scatter=20))
     assert c.worst["links"] == "alpha-alpha"
     assert c.safe_buffer_mm > 3.5 > c.spec_buffer_mm
-
-
-def test_report_files(cal, tmp_path):
-    paths = write_report(cal, tmp_path / "rep", command="rfp-twin calibrate-buffer")
-    md = paths["markdown"].read_text()
-    assert f"{cal.n_samples} uniform (Sobol) configurations" in md
-    assert f"{cal.safe_buffer_mm:.4f}" in md and f"{cal.mc_buffer_mm:.4f}" in md
-    assert "0.97" in md or f"{cal.paper_sigma_eps_mm:.4f}" in md
-    for f in paths["figures"]:
-        assert f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and f.stat().st_size > 5000
-        assert f.name in md
-    data = json.loads(paths["json"].read_text())
-    assert data["safe_buffer_mm"] == pytest.approx(cal.safe_buffer_mm)
-    assert data["n_samples"] == cal.n_samples
 
 
 @pytest.mark.parametrize("kw,field", [({"probability": 0.0}, "probability"),

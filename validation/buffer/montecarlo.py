@@ -1,0 +1,85 @@
+"""Part (c) of the calibration: the buffer that angular errors call for (Monte Carlo).
+
+A commanded configuration ``c`` is reached as ``c + e``, ``e`` uniform in ``[-ea, ea] x
+[-eb, eb]`` per robot (default the paper's worst-case 1.50 / 1.48 deg, Sayres et al.
+2021, Sect. 6). For one draw ``e``, every 2D-safe ``c`` stays 3D-safe iff ``b >= B(e) =
+max required(c' - e)`` over the 3D-colliding actual configurations ``c'``. ``B(e)`` is
+estimated from candidate configurations (3D-colliding, near the largest ``required``)
+and a local search from the best few (:func:`validation.buffer.sampling.climb`).
+Units: mm, deg.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from validation.buffer.sampling import climb, distinct_top
+
+
+class ErrorBuffer:
+    """``B(e)`` for draws ``e`` of the angular errors, from fixed candidates.
+
+    Parameters
+    ----------
+    required : callable(angles (n, 4) deg, direction index (n,)) -> (n,) mm
+        The smallest buffer whose 2D model forbids each configuration.
+    classify : callable(angles, direction index) -> (n,) bool
+        Exact 3D collision of each configuration.
+    cand_ang : (k, 4) deg; cand_dir : (k,) int
+        Candidate actual configurations ``c'`` (3D-colliding) and their directions.
+    rng : numpy Generator
+        Drives the local search.
+    """
+
+    def __init__(self, required: Callable, classify: Callable, cand_ang: np.ndarray,
+                 cand_dir: np.ndarray, rng):
+        self.required = required
+        self.classify = classify
+        self.ang = cand_ang
+        self.dir = cand_dir
+        self.rng = rng
+
+    def __call__(self, err: np.ndarray, starts: int, rounds: int):
+        """B(e): the best of the candidates, then a local search in the actual
+        configuration c' (kept in 3D collision) raising required(c' - e).
+        Returns (B, c', direction index)."""
+        if not len(self.ang):
+            return 0.0, None, -1
+        vals = self.required(self.ang - err, self.dir)
+        i = int(np.argmax(vals))
+        best = (float(vals[i]), self.ang[i], int(self.dir[i]))
+        if rounds == 0:
+            return best
+        top = distinct_top(vals, self.ang, self.dir, starts)
+        ang_b, val_b, _, _, _ = climb(lambda a, d: self.required(a - err, d), self.classify,
+                                      self.ang[top], self.dir[top], self.rng,
+                                      rounds=rounds, batch=16, step_deg=0.5)
+        j = int(np.argmax(val_b))
+        if val_b[j] > best[0]:
+            best = (float(val_b[j]), ang_b[j], int(self.dir[top][j]))
+        return best
+
+
+def corner_errors(ea: float, eb: float) -> np.ndarray:
+    """The 16 errors with every component at its bound, (16, 4) deg."""
+    return np.array([[sa * ea, sb * eb, sc * ea, sd * eb] for sa in (-1, 1) for sb in (-1, 1)
+                     for sc in (-1, 1) for sd in (-1, 1)], dtype=float)
+
+
+def error_buffers(b_of: ErrorBuffer, draws: np.ndarray, corners: np.ndarray, starts: int,
+                  rounds: int, report: Callable[[str, float], None]):
+    """``B`` without errors (longer search), ``B(e)`` per draw, and the worst corner.
+
+    Returns ``((B0, c', direction index), samples (n_draws,) mm, corner mm)``; the
+    error-free and corner searches use 4x the starts and at least 4x10 rounds.
+    """
+    long = (4 * starts, 4 * max(rounds, 10))
+    free = b_of(np.zeros(4), *long)
+    samples = np.empty(len(draws))
+    for k in range(len(draws)):
+        samples[k] = b_of(draws[k], starts, rounds)[0]
+        if k % 50 == 0:
+            report("monte carlo", k / len(draws))
+    corner = max(b_of(c, *long)[0] for c in corners)
+    return free, samples, corner

@@ -1,0 +1,34 @@
+"""Independent dense 2D collision check of a :class:`models.trajectory.Trajectory`.
+
+Checks every robot-robot and robot-fiducial pair that can touch against the capsule
+model of Sayres et al. 2021 (Eq. 3), with a bound between samples so that no collision,
+however brief, can slip through (mm, deg, s at the public boundary).
+
+Modules
+-------
+report
+    :class:`Collision`, :class:`CheckReport`.
+speeds
+    Point-speed bounds of the collision segment, :func:`coarse_grid`.
+kernel
+    The numba kernel: coarse grid, bisection, interval bound, collision runs.
+check
+    :func:`check_trajectory`: candidate pairs (k-d tree), kernel inputs, the report.
+
+Independence: this package imports ``models`` (robot, layout, errors, the trajectory
+data type) and :mod:`validation.numerics` (its own segment distance), never
+``planners`` nor the planner's distance code :mod:`models.geometry2d`.
+"""
+from validation.checker2d.check import check_trajectory
+from validation.checker2d.report import CheckReport, Collision
+from validation.checker2d.speeds import coarse_grid, speed_bounds_mm_s
+from validation.numerics import segment_distance_np
+
+__all__ = [
+    "Collision",
+    "CheckReport",
+    "check_trajectory",
+    "segment_distance_np",
+    "speed_bounds_mm_s",
+    "coarse_grid",
+]

@@ -1,0 +1,207 @@
+"""Lower bounds of the 3D distance of two posed links (numba kernels; mm, rad).
+
+Every convex collision piece is enclosed twice, in the frame of its link
+(:class:`validation.mesh3d.links.LinkModels`):
+
+* a vertical *capsule prism*: a 2D capsule (segment + radius, fitted to the piece's
+  vertices so that every vertex is inside; a capsule is convex, so the whole piece is)
+  times the piece's z interval;
+* a vertical *hull prism*: the convex hull of the piece's vertices projected on the
+  xy plane, times the same z interval. It contains the piece; for the procedural
+  pieces (prisms and cylinders) it *is* the piece.
+
+The distance of two product sets ``P x [z]`` and ``Q x [z']`` is exactly
+``sqrt(d_xy^2 + d_z^2)`` (``d_xy`` the 2D distance, ``d_z`` the gap of the z
+intervals). For capsules ``d_xy = max(0, seg_dist - r_u - r_v)`` (~0.05 us in numba;
+when ``d_z = 0`` the signed value is kept); for hulls ``d_xy`` comes from a 2D GJK on
+the two polygons, of which every iterate gives a valid lower bound ``v . w / |v|``
+(~1 us). The hull value is computed only where the capsule value is below a given
+``tight_below``. ``C``, the minimum over the piece pairs of two links, is a lower bound
+of their true distance ``D`` (on the procedural SDSS-V meshes equal to it to 1e-12 mm),
+against ~100-300 us for one FCL BVH distance: FCL is called only where ``C`` cannot
+decide.
+
+A link pose is ``(theta, x, y)``: world point ``= (x, y) + Rz(theta) p`` in the xy plane
+for ``p`` in the link frame (the z offset of a link kind is constant).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from models.geometry import LINKS
+from validation.numerics import clamp01, segment_distance
+
+#: Link kind codes used inside the kernels (index into :data:`models.geometry.LINKS`).
+BODY, ALPHA, BETA, FIDUCIAL = (LINKS.index(n) for n in ("body", "alpha", "beta", "fiducial"))
+
+
+@njit(cache=True)
+def pose(kind, a, b, la):
+    """(theta, ox, oy): link frame rotation and xy offset from the base (rad, mm)."""
+    if kind == ALPHA:
+        return a, 0.0, 0.0
+    if kind == BETA:
+        return a + b, la * math.cos(a), la * math.sin(a)
+    return 0.0, 0.0, 0.0
+
+
+@njit(cache=True)
+def _support(pxy, k0, k1, c, s, ox, oy, dx, dy):
+    """Vertex of polygon pxy[k0:k1] (posed: rotation (c, s), offset (ox, oy)) furthest
+    along world direction (dx, dy); returns its world coordinates."""
+    lx = c * dx + s * dy            # direction in the link frame
+    ly = -s * dx + c * dy
+    best = -np.inf
+    kb = k0
+    for k in range(k0, k1):
+        d = pxy[k, 0] * lx + pxy[k, 1] * ly
+        if d > best:
+            best = d
+            kb = k
+    return ox + c * pxy[kb, 0] - s * pxy[kb, 1], oy + s * pxy[kb, 0] + c * pxy[kb, 1]
+
+
+@njit(cache=True)
+def poly_lower_bound(u, v, ca, sa, xa, ya, cb, sb, xb, yb, pptr, pxy):
+    """Lower bound of the distance of two posed convex polygons (2D GJK).
+
+    Iterates GJK on the Minkowski difference ``A - B``; at every iteration ``v . w /
+    |v|`` (``v`` the current closest point, ``w`` the support point in direction
+    ``-v``) bounds the distance from below, whatever the convergence, so the result
+    is always a valid lower bound (exact when GJK converges). 0 when they overlap.
+    """
+    a0, a1, b0, b1 = pptr[u], pptr[u + 1], pptr[v], pptr[v + 1]
+    ax, ay = _support(pxy, a0, a1, ca, sa, xa, ya, 1.0, 0.0)
+    bx, by = _support(pxy, b0, b1, cb, sb, xb, yb, -1.0, 0.0)
+    s0x = ax - bx
+    s0y = ay - by
+    s1x = 0.0
+    s1y = 0.0
+    ns = 1
+    vx = s0x
+    vy = s0y
+    lb = 0.0
+    for _ in range(64):
+        vv = vx * vx + vy * vy
+        if vv <= 1e-24:
+            return 0.0
+        ax, ay = _support(pxy, a0, a1, ca, sa, xa, ya, -vx, -vy)
+        bx, by = _support(pxy, b0, b1, cb, sb, xb, yb, vx, vy)
+        wx = ax - bx
+        wy = ay - by
+        vw = vx * wx + vy * wy
+        nv = math.sqrt(vv)
+        if vw / nv > lb:
+            lb = vw / nv
+        if vv - vw <= 1e-12 * vv + 1e-18:
+            break
+        if ns == 1:
+            # segment [s0, w]
+            ex = wx - s0x
+            ey = wy - s0y
+            ee = ex * ex + ey * ey
+            t = clamp01(-(s0x * ex + s0y * ey) / ee) if ee > 0.0 else 0.0
+            if t <= 0.0:
+                vx, vy = s0x, s0y
+            elif t >= 1.0:
+                s0x, s0y = wx, wy
+                vx, vy = wx, wy
+            else:
+                s1x, s1y = wx, wy
+                ns = 2
+                vx = s0x + t * ex
+                vy = s0y + t * ey
+        else:
+            # triangle (s0, s1, w): origin inside -> overlap
+            c1 = (s1x - s0x) * (wy - s0y) - (s1y - s0y) * (wx - s0x)
+            d0 = (s1x - s0x) * (-s0y) - (s1y - s0y) * (-s0x)
+            d1 = (wx - s1x) * (-s1y) - (wy - s1y) * (-s1x)
+            d2 = (s0x - wx) * (-wy) - (s0y - wy) * (-wx)
+            if c1 != 0.0 and d0 * c1 >= 0.0 and d1 * c1 >= 0.0 and d2 * c1 >= 0.0:
+                return 0.0
+            # keep the closest of the edges (s0, w) and (s1, w) (w is new, so in the edge)
+            best = np.inf
+            keep_x = 0.0
+            keep_y = 0.0
+            for e in range(2):
+                px = s0x if e == 0 else s1x
+                py = s0y if e == 0 else s1y
+                ex = wx - px
+                ey = wy - py
+                ee = ex * ex + ey * ey
+                t = clamp01(-(px * ex + py * ey) / ee) if ee > 0.0 else 0.0
+                cx = px + t * ex
+                cy = py + t * ey
+                dd = cx * cx + cy * cy
+                if dd < best:
+                    best = dd
+                    keep_x, keep_y = px, py
+                    vx, vy = cx, cy
+            s0x, s0y = keep_x, keep_y
+            s1x, s1y = wx, wy
+    return max(lb, 0.0)
+
+
+@njit(cache=True)
+def piece_bound(u, v, tha, xa, ya, thb, xb, yb, cap, zlim, pptr, pxy, tight_below):
+    """Lower bound of the distance of pieces u (pose a) and v (pose b), mm.
+
+    Capsule prisms first; where that is below ``tight_below`` the vertical prisms of
+    the pieces' xy hulls (GJK lower bound) too, keeping the larger. Both are lower
+    bounds of the true distance and Lipschitz in time with the link speed bounds.
+    """
+    ca = math.cos(tha)
+    sa = math.sin(tha)
+    cb = math.cos(thb)
+    sb = math.sin(thb)
+    a0x = xa + ca * cap[u, 0] - sa * cap[u, 1]
+    a0y = ya + sa * cap[u, 0] + ca * cap[u, 1]
+    a1x = xa + ca * cap[u, 2] - sa * cap[u, 3]
+    a1y = ya + sa * cap[u, 2] + ca * cap[u, 3]
+    b0x = xb + cb * cap[v, 0] - sb * cap[v, 1]
+    b0y = yb + sb * cap[v, 0] + cb * cap[v, 1]
+    b1x = xb + cb * cap[v, 2] - sb * cap[v, 3]
+    b1y = yb + sb * cap[v, 2] + cb * cap[v, 3]
+    dxy = segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - cap[u, 4] - cap[v, 4]
+    dz = max(0.0, zlim[u, 0] - zlim[v, 1], zlim[v, 0] - zlim[u, 1])
+    if dz > 0.0:
+        x = max(dxy, 0.0)
+        out = math.sqrt(x * x + dz * dz)
+    else:
+        out = dxy
+    if out < tight_below:
+        lp = poly_lower_bound(u, v, ca, sa, xa, ya, cb, sb, xb, yb, pptr, pxy)
+        f = math.sqrt(lp * lp + dz * dz) if dz > 0.0 else lp
+        if f > out:
+            out = f
+    return out
+
+
+@njit(cache=True)
+def link_bound(ka, kb, tha, xa, ya, thb, xb, yb, kptr, cap, zlim, pptr, pxy, tight_below):
+    """Lower bound C of the distance of link kind ka (pose a) and kb (pose b), mm: the
+    minimum of :func:`piece_bound` over their piece pairs."""
+    best = np.inf
+    for u in range(kptr[ka], kptr[ka + 1]):
+        for v in range(kptr[kb], kptr[kb + 1]):
+            d = piece_bound(u, v, tha, xa, ya, thb, xb, yb, cap, zlim, pptr, pxy, tight_below)
+            if d < best:
+                best = d
+    return best
+
+
+@njit(cache=True)
+def store_pose_bounds(poses, bounds, k, ka, kb, tha, xa, ya, thb, xb, yb,
+                      kptr, cap, zlim, pptr, pxy):
+    """Row ``k`` of ``poses`` (both link poses) and of ``bounds`` (the capsule bound of
+    every piece pair, row-major over (u, v)) for links ka (pose a) and kb (pose b)."""
+    poses[k] = (tha, xa, ya, thb, xb, yb)
+    j = 0
+    for u in range(kptr[ka], kptr[ka + 1]):
+        for v in range(kptr[kb], kptr[kb + 1]):
+            bounds[k, j] = piece_bound(u, v, tha, xa, ya, thb, xb, yb, cap, zlim,
+                                       pptr, pxy, np.inf)
+            j += 1
