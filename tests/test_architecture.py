@@ -4,7 +4,7 @@
   checkers do not share the planner's distance code (import-linter contracts in
   pyproject.toml, run with the maintained tool itself, not a hand-written walker).
 - No source module is longer than a person holds in mind (``MAX_LINES``), except the
-  modules that hold one numba kernel each (listed, with their size limit).
+  modules that hold one numba kernel each (``KERNEL_MODULES``, with their size limit).
 """
 from __future__ import annotations
 
@@ -15,6 +15,8 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("models", "planners", "validation", "twin")
 MAX_LINES = 500
+#: Modules that hold a single numba kernel, which does not split: their size limit.
+KERNEL_MODULES = {"planners/stepwise/kernel.py": 700}
 
 
 def test_import_contracts_hold():
@@ -36,8 +38,9 @@ def test_contracts_cover_every_package():
 
 @pytest.mark.parametrize("package", PACKAGES)
 def test_modules_stay_small(package):
-    long = {str(p.relative_to(ROOT)): n for p in sorted((ROOT / package).rglob("*.py"))
-            if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
+    long = {rel: n for p in sorted((ROOT / package).rglob("*.py"))
+            if (n := len(p.read_text(encoding="utf-8").splitlines()))
+            > KERNEL_MODULES.get(rel := p.relative_to(ROOT).as_posix(), MAX_LINES)}
     assert long == {}, f"modules over {MAX_LINES} lines: split them along their seams"
 
 
