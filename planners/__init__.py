@@ -1,1 +1,51 @@
-"""From configurations to collision-free, timed trajectories."""
+"""From configurations to collision-free, timed trajectories (imports ``models`` only).
+
+The public API, each name loaded from its module on first use (numba compiles or loads
+its cache then, not at ``import planners``). Units: mm, deg, s; configurations are
+``(n_robots, 2)`` arrays of (alpha, beta) in deg.
+
+Stepwise planning (Sayres et al. 2021): :class:`PlannerSettings`,
+:func:`plan_reconfiguration`, :data:`ALGORITHMS`, :data:`DIRECTIONS`, :data:`RESOLVERS`,
+:func:`max_displacement`; the result :class:`Plan` and its robot statuses.
+Targets and offline robots: :func:`random_targets`, :func:`check_targets`,
+:func:`check_angles`, :func:`apply_offline`. Deadlocks: :class:`SearchResolveSettings`
+(state-time search after Sabater 2018), :class:`RoadmapSettings`.
+Potential fields (Makarem 2014, Macktoobian 2019): :class:`ApfSettings`,
+:class:`CapfSettings`, :func:`plan_apf`, :func:`plan_apf_reconfiguration`,
+:func:`apf_target_margin_mm`.
+Post-processing: :func:`postprocess` (smooth, time, simplify, re-verify with the verifier
+it is handed), :class:`PostprocessReport`, :data:`BACKENDS`, :data:`DEFAULT_BACKEND`.
+"""
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {
+    **dict.fromkeys(("PlannerSettings", "plan_reconfiguration", "ALGORITHMS", "DIRECTIONS",
+                     "RESOLVERS"), "planners.solver"),
+    **dict.fromkeys(("Plan", "REACHED", "REPLACED", "DEADLOCKED", "OFFLINE", "STATUSES"),
+                    "planners.plan"),
+    **dict.fromkeys(("random_targets", "check_targets", "check_angles"), "planners.targets"),
+    "apply_offline": "planners.offline",
+    "max_displacement": "planners.stepwise",
+    "SearchResolveSettings": "planners.resolve_search",
+    "RoadmapSettings": "planners.roadmap",
+    **dict.fromkeys(("ApfSettings", "CapfSettings", "plan_apf", "plan_apf_reconfiguration",
+                     "apf_target_margin_mm"), "planners.apf"),
+    **dict.fromkeys(("postprocess", "PostprocessReport", "Verifier"), "planners.postprocess"),
+    **dict.fromkeys(("BACKENDS", "DEFAULT_BACKEND"), "planners.timing"),
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    if name not in _LAZY:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(_LAZY[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
