@@ -25,12 +25,13 @@ from typing import Any
 
 from models.array import ArrayGeometry
 from models.errors import RfpError
-from models.robot import RobotSpec, load_spec
+from models.robot import RobotSpec
 from twin.pipeline import (FIELD_ALGORITHMS, PlanOptions, Reconfiguration, folded_clearance_error,
                            plan_random)
+from twin.studies.parse import parse_study
 from twin.studies.spec import PARAM_COLUMNS, StudyPoint, point_layout
 
-__all__ = ["run_trial", "run_batch", "plan_options"]
+__all__ = ["run_trial", "run_batch"]
 
 #: A batch item: (point dict, spec, trial index, seed, key, point id).
 BatchItem = tuple[dict, RobotSpec, int, int, str, str]
@@ -41,7 +42,7 @@ def _geometry(spec: RobotSpec, kind: str, n_robots: int) -> ArrayGeometry:
     return ArrayGeometry(spec, point_layout(kind, n_robots, spec.pitch_mm), spec.buffer_mm)
 
 
-def plan_options(point: dict) -> PlanOptions:
+def _plan_options(point: dict) -> PlanOptions:
     """The pipeline's options for a grid point (``StudyPoint.to_dict()``); raw stepwise
     paths (no post-processing), field gain and lambda3 at their defaults."""
     return PlanOptions(algorithm=point["algorithm"], step_deg=point["step_deg"],
@@ -50,6 +51,9 @@ def plan_options(point: dict) -> PlanOptions:
                        max_steps=point["max_steps"], max_rounds=point["max_rounds"], raw=True)
 
 
+#: The warm-up study: both stepwise planners on 7 robots.
+_WARM_UP = "[grid]\nn_robots = 7\nbuffer_mm = 2.0\nstep_deg = 1.0\nmax_rounds = 5\n" \
+           "algorithm = ['greedy', 'markov']\n"
 _WARM = False
 
 
@@ -59,14 +63,8 @@ def _warm_up() -> None:
     global _WARM
     if _WARM:
         return
-    spec = load_spec("sdss-v").with_overrides(buffer_mm=2.0)
-    point = dict(preset="sdss-v", layout="hex", n_robots=7, pitch_mm=22.4, alpha_length_mm=7.4,
-                 beta_length_mm=15.0, segment_end_mm=15.0, fold_alpha_deg=10.0,
-                 fold_beta_deg=170.0, buffer_mm=2.0, step_deg=1.0,
-                 greed=0.9, phobia=0.3, resolution="replace", direction="reverse",
-                 max_rounds=5, max_steps=1000)
-    for alg in ("greedy", "markov"):
-        _trial_row(dict(point, algorithm=alg), spec, 0, 0, True)
+    for p in parse_study(_WARM_UP, source="warm-up").points:
+        _trial_row(p.to_dict(), p.spec, 0, 0, True)
     _WARM = True
 
 
@@ -100,7 +98,7 @@ def _trial_row(point: dict, spec: RobotSpec, seed: int, index: int, check: bool)
     try:
         geom = _geometry(spec, point["layout"], int(point["n_robots"]))
         row["n_fiducials"] = geom.layout.n_fiducials
-        row.update(_plan_and_check(geom, plan_options(point), int(seed), check))
+        row.update(_plan_and_check(geom, _plan_options(point), int(seed), check))
     except RfpError as exc:  # e.g. no clear random targets in a very dense array
         row.update(status="error", error=f"{type(exc).__name__}: {exc}")
     row["wall_s"] = time.perf_counter() - t0

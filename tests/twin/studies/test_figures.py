@@ -40,4 +40,5 @@ def test_figures_follow_the_varied_parameters_and_cap_the_series(tmp_path):
                            "arm lengths)"}
     assert sorted(p.name for p in tmp_path.glob("*.png")) == sorted(f"{n}.png" for n in drawn)
     # 13 greeds = 13 lines vs buffer: the first MAX_SERIES are drawn, and it is said
-    assert notes[0] == f"figs. 10-14: 13 series; the first {MAX_SERIES} of each algorithm are drawn."
+    assert notes[0] == (f"figs. 10-14: 13 series; the first {MAX_SERIES} of each algorithm "
+                        "are drawn.")
