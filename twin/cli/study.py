@@ -34,7 +34,8 @@ def run(
                                "(see `rfp-twin study list`)."),
     scheduler: Optional[str] = typer.Option(
         None, help="Address of a running Dask scheduler, e.g. tcp://HOST:8786 (a SLURM cluster "
-                   "via dask-jobqueue: see twin/studies.py) (default: a LocalCluster here)."),
+                   "via dask-jobqueue: see twin/studies/cluster.py) (default: a LocalCluster "
+                   "here)."),
     workers: Optional[int] = typer.Option(
         None, help=f"LocalCluster worker processes (default: cores here = {machine_workers()})."),
     out: Optional[Path] = typer.Option(None, help="Study folder (default: out/studies/<name>)."),
@@ -91,7 +92,7 @@ def run(
 
 
 def _report(study_dir: Path, out: Optional[Path], all_points: bool) -> None:
-    from twin.study_report import write_report
+    from twin.studies.report import write_report
 
     rep = write_report(study_dir, out, all_points=all_points)
     console.print(f"report: {rep.markdown}")

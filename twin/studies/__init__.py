@@ -1,0 +1,37 @@
+"""Design studies: grids of simulated reconfigurations, run on Dask, stored as Parquet.
+
+Instrument teams choose pitch, arm lengths and collision buffers from thousands of
+simulated reconfigurations (Sayres et al. 2021 Sect. 5). One module per job:
+
+- :mod:`~twin.studies.spec`: the study file's format, :class:`Study`, grid points, trials
+- :mod:`~twin.studies.parse`: study TOML -> validated :class:`Study`; the shipped studies
+- :mod:`~twin.studies.runner`: one trial -> one row (the :mod:`twin.pipeline` on a point)
+- :mod:`~twin.studies.cluster`: Dask cluster or scheduler address, batches, the task loop
+- :mod:`~twin.studies.store`: Parquet rows, the writer lock, the resume scan
+- :mod:`~twin.studies.run`: :func:`run_study`, resume and summary
+- :mod:`~twin.studies.report` (with ``groups``, ``figures``, ``paper``): markdown and
+  figures in the style of Sayres 2021 Figs. 10-18
+
+Example::
+
+    summary = run_study(load_study("sim1-small"), "out/studies/sim1-small", workers=2)
+    table = read_results("out/studies/sim1-small")   # one pyarrow row per trial
+"""
+from __future__ import annotations
+
+from twin.studies.cluster import machine_workers
+from twin.studies.parse import list_studies, load_study, parse_study, study_path
+from twin.studies.run import RunSummary, run_study
+from twin.studies.runner import run_trial
+from twin.studies.spec import (GRID_KEYS, PARAM_COLUMNS, STUDY_KEYS, Study, StudyError,
+                               StudyPoint, Trial)
+from twin.studies.store import (COMPACT_PREFIX, RESULTS, SCHEMA, STUDY_COPY, compact_results,
+                                default_out_dir, done_keys, read_results, results_dir, write_row)
+
+__all__ = [
+    "StudyError", "Study", "StudyPoint", "Trial", "RunSummary", "SCHEMA", "GRID_KEYS",
+    "STUDY_KEYS", "list_studies", "study_path", "load_study", "parse_study", "run_trial",
+    "run_study", "read_results", "done_keys", "write_row", "compact_results",
+    "results_dir", "default_out_dir", "machine_workers", "PARAM_COLUMNS", "RESULTS",
+    "STUDY_COPY", "COMPACT_PREFIX",
+]

@@ -1,0 +1,132 @@
+"""One study trial -> one row: the reconfiguration pipeline on a grid point, its metrics.
+
+A trial is :class:`twin.pipeline.Reconfiguration` with the point's options and
+``raw=True``: seeded random targets, the plan (stepwise planner with deadlock resolution,
+or a potential field) and, when the study checks, the independent 2D check of the
+stepwise paths at the planning buffer (:attr:`twin.outcome.Outcome.check`). The random
+sequence is the pipeline's, i.e. ``rfp-twin plan --seed SEED``: targets drawn from
+``numpy.random.default_rng(seed)``, then the planner driven by the same generator. A
+design whose folded state already collides is recorded as an error row
+(:func:`twin.pipeline.folded_clearance_error`), as is any other :class:`RfpError` (e.g.
+no clear random targets in a very dense array): a study maps where designs fail.
+
+The functions here run on Dask workers (:func:`run_batch`) or in this process
+(:func:`run_trial`). Row columns: :data:`twin.studies.store.SCHEMA`; units mm, deg, s.
+"""
+from __future__ import annotations
+
+import functools
+import math
+import os
+import socket
+import time
+from datetime import datetime, timezone
+from typing import Any
+
+from models.array import ArrayGeometry
+from models.errors import RfpError
+from models.robot import RobotSpec
+from twin.pipeline import (FIELD_ALGORITHMS, PlanOptions, Reconfiguration, folded_clearance_error,
+                           plan_random)
+from twin.studies.parse import parse_study
+from twin.studies.spec import PARAM_COLUMNS, StudyPoint, point_layout
+
+__all__ = ["run_trial", "run_batch"]
+
+#: A batch item: (point dict, spec, trial index, seed, key, point id).
+BatchItem = tuple[dict, RobotSpec, int, int, str, str]
+
+
+@functools.lru_cache(maxsize=16)
+def _geometry(spec: RobotSpec, kind: str, n_robots: int) -> ArrayGeometry:
+    return ArrayGeometry(spec, point_layout(kind, n_robots, spec.pitch_mm), spec.buffer_mm)
+
+
+def _plan_options(point: dict) -> PlanOptions:
+    """The pipeline's options for a grid point (``StudyPoint.to_dict()``); raw stepwise
+    paths (no post-processing), field gain and lambda3 at their defaults."""
+    return PlanOptions(algorithm=point["algorithm"], step_deg=point["step_deg"],
+                       greed=point["greed"], phobia=point["phobia"],
+                       direction=point["direction"], resolve=point["resolution"],
+                       max_steps=point["max_steps"], max_rounds=point["max_rounds"], raw=True)
+
+
+#: The warm-up study: both stepwise planners on 7 robots.
+_WARM_UP = "[grid]\nn_robots = 7\nbuffer_mm = 2.0\nstep_deg = 1.0\nmax_rounds = 5\n" \
+           "algorithm = ['greedy', 'markov']\n"
+_WARM = False
+
+
+def _warm_up() -> None:
+    """Load (or compile) every numba kernel once per process, so that the first trial's
+    tau_pg measures planning and not the JIT cache."""
+    global _WARM
+    if _WARM:
+        return
+    for p in parse_study(_WARM_UP, source="warm-up").points:
+        _trial_row(p.to_dict(), p.spec, 0, 0, True)
+    _WARM = True
+
+
+def run_trial(point: StudyPoint, index: int, base_seed: int, check: bool = True,
+              study: str = "") -> dict:
+    """Run one trial in this process; returns its row (a dict with the :data:`SCHEMA` columns)."""
+    row = _trial_row(point.to_dict(), point.spec, point.trial_seed(base_seed, index), index, check)
+    row.update(key=point.trial_key(base_seed, index), study=study, point_id=point.point_id,
+               base_seed=int(base_seed))
+    return row
+
+
+def run_batch(batch: list[BatchItem], check: bool, study: str, base_seed: int) -> list[dict]:
+    """Dask task: a few trials, in order; their rows."""
+    _warm_up()
+    rows = []
+    for point, spec, index, seed, key, pid in batch:
+        row = _trial_row(point, spec, seed, index, check)
+        row.update(key=key, study=study, point_id=pid, base_seed=int(base_seed))
+        rows.append(row)
+    return rows
+
+
+def _trial_row(point: dict, spec: RobotSpec, seed: int, index: int, check: bool) -> dict:
+    t0, c0 = time.perf_counter(), time.thread_time()
+    row: dict[str, Any] = {k: point[k] for k in PARAM_COLUMNS}
+    la, lb = point["alpha_length_mm"], point["beta_length_mm"]
+    row.update(trial=int(index), seed=int(seed), reach_mm=la + lb,
+               pitch_over_reach=point["pitch_mm"] / (la + lb), checked=bool(check),
+               worker=f"{socket.gethostname()}:{os.getpid()}", error=None)
+    try:
+        geom = _geometry(spec, point["layout"], int(point["n_robots"]))
+        row["n_fiducials"] = geom.layout.n_fiducials
+        row.update(_plan_and_check(geom, _plan_options(point), int(seed), check))
+    except RfpError as exc:  # e.g. no clear random targets in a very dense array
+        row.update(status="error", error=f"{type(exc).__name__}: {exc}")
+    row["wall_s"] = time.perf_counter() - t0
+    row["cpu_s"] = time.thread_time() - c0
+    row["finished_utc"] = datetime.now(timezone.utc)
+    return row
+
+
+def _plan_and_check(geom: ArrayGeometry, options: PlanOptions, seed: int, check: bool) -> dict:
+    """The metric columns of one pipeline run (the check columns only when ``check``)."""
+    if options.algorithm not in FIELD_ALGORITHMS:
+        # fields start where their barrier allows; they report a colliding fold themselves
+        error = folded_clearance_error(geom)
+        if error is not None:
+            raise error
+    cols: dict[str, Any] = {}
+    if check:
+        outcome = Reconfiguration(geom, options).run(seed=seed)
+        plan, rep = outcome.plan, outcome.check
+        cols.update(collisions=len(rep.collisions), check_s=outcome.seconds["deliver"],
+                    min_clearance_mm=float(rep.min_clearance_mm)
+                    if math.isfinite(rep.min_clearance_mm) else None)
+    else:
+        _, plan, _ = plan_random(geom, seed, options)
+    m = plan.metrics
+    cols.update(efficiency=float(m["efficiency"]), convergence=float(m["convergence"]),
+                fold_time_s=float(m["fold_time_s"]), tau_pg_s=float(m["tau_pg_s"]),
+                tau_sr_s=float(m["tau_sr_s"]), n_replaced=int(m["n_replaced"]),
+                n_deadlocked=int(m["n_deadlocked"]), rounds=int(m["rounds"]),
+                n_steps=int(m["n_steps"]), status="deadlocked" if m["n_deadlocked"] else "ok")
+    return cols

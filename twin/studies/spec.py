@@ -1,0 +1,261 @@
+"""What a design study is: the study file's keys, a grid point, a trial, a study.
+
+A *study* is a TOML file that names a parameter grid, a number of trials per grid point
+and a base seed (Sayres et al. 2021 Sect. 5 ran 36,000 trials for its Fig. 10); every
+trial is one seeded random target draw + one planned reconfiguration + optionally the
+independent dense 2D check (:mod:`twin.studies.runner`). :mod:`twin.studies.parse` reads
+and validates the file into the :class:`Study` defined here.
+
+Study file
+----------
+::
+
+    [study]
+    name = "sim1-small"           # output folder name; default: the file name
+    description = "..."
+    reference = "Sayres 2021 Table 1, Figs. 10-14"
+    trials = 6                    # trials per grid point
+    seed = 2021                   # base seed
+    check = true                  # run checker2d on every trial (false: faster)
+    batch = "auto"                # trials per Dask task ("auto" or an integer)
+
+    [grid]                        # each key: one value or a list; the study is the product
+    preset = "sdss-v"             # robot preset name, or a robot TOML path (relative to this file)
+    layout = "hex"                # "hex": centred hex grid of n_robots | "sdss-v-fps":
+                                  # the real 500 robots + 60 fiducials
+    n_robots = 547                # centred hex count 1 + 3r(r+1): 37, 91, 169, 271, 397, 547, ...
+    pitch_mm = 22.4               # default: the preset's
+    alpha_length_mm = 7.4         # default: the preset's
+    beta_length_mm = 15.0         # default: the preset's
+    segment_end_mm = 15.0         # beta collision segment end; default: the preset's
+                                  # rule (following beta_length_mm when the preset's
+                                  # segment ends at the fiber)
+    fold_alpha_deg = 10.0         # the folded state planned to / from; default: the preset's
+    fold_beta_deg = 170.0
+    buffer_mm = [1.5, 2.5, 3.5]   # sigma_cb; default: the preset's
+    step_deg = 0.1
+    algorithm = ["greedy", "markov"]   # "GC" / "MC" accepted; also "apf", "capf" (fields)
+    greed = 0.9                   # Markov only (greedy points use greed 1, phobia 0)
+    phobia = 0.3
+    resolution = "replace"        # deadlock resolution: "replace" (Sayres 2021 Sect. 5.2)
+                                  # | "search" (state-time search keeps targets, replaces
+                                  # where it fails) | "none" (first planner run only)
+    direction = "reverse"         # "reverse" | "forward"
+    max_rounds = 50               # resolution rounds
+    max_steps = 10000             # default: 1000 deg / step_deg (the paper's rule)
+
+Unknown tables or keys and bad values raise :class:`StudyError` naming the file, the key
+and the allowed values. Shipped studies live in ``twin/study_files/*.toml`` (``sim1``,
+``sim2``, ``sim3``: the paper's Simulations 1-3 at full size (Tables 1, 2, 4); ``*-small``:
+versions that finish in minutes on a laptop; ``density*``: pitch / reach x buffer maps).
+
+Trials and seeds
+----------------
+A trial is (grid point, trial index). Its seed comes from ``numpy.random.SeedSequence``
+with the base seed as entropy and (a stable SHA-256 hash of the point, the index) as spawn
+key, so reruns, other machines and other worker counts reproduce every trial. The seed
+is stored: ``rfp-twin plan --layout hex:N --buffer B --step D --algorithm A --seed SEED``
+replays a hex-grid trial exactly. The trial key (hash of point, base seed, index) is the
+resume key (:mod:`twin.studies.store`).
+
+Units: mm, deg, s.
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from models.errors import RfpError
+from models.layout import Layout
+from models.robot import RobotSpec
+
+__all__ = ["StudyError", "StudyPoint", "Trial", "Study", "STUDY_KEYS", "GRID_KEYS",
+           "GRID_DEFAULTS", "PARAM_COLUMNS", "point_layout"]
+
+
+class StudyError(RfpError):
+    """A study file is malformed, has an unknown key or a bad value, or a run cannot start."""
+
+
+# =====================================================================================
+# Constants: keys, allowed values, defaults
+# =====================================================================================
+#: Keys of the [study] table and what they hold.
+STUDY_KEYS = {
+    "name": "a folder-safe name (letters, digits, . _ -)",
+    "description": "a string",
+    "reference": "a string",
+    "trials": "an integer >= 1 (trials per grid point)",
+    "seed": "an integer >= 0 (base seed)",
+    "check": "true | false (run the 2D checker on every trial)",
+    "batch": "\"auto\" or an integer >= 1 (trials per Dask task)",
+}
+#: Keys of the [grid] table and what they hold.
+GRID_KEYS = {
+    "preset": "a robot preset name or a path to a robot TOML",
+    "layout": "\"hex\" | \"sdss-v-fps\"",
+    "n_robots": "a centred hex count 1 + 3r(r+1) (7, 19, 37, 61, 91, ..., 547, ...)",
+    "pitch_mm": "a number > 0 (mm)",
+    "alpha_length_mm": "a number > 0 (mm)",
+    "beta_length_mm": "a number > 0 (mm)",
+    "segment_end_mm": "a number >= 0 (mm)",
+    "fold_alpha_deg": "a number (deg) within the preset's alpha limits",
+    "fold_beta_deg": "a number (deg) within the preset's beta limits",
+    "buffer_mm": "a number > 0 (mm), below pitch / 2",
+    "step_deg": "a number in [0.001, 10] (deg)",
+    "algorithm": "greedy | markov (GC / MC accepted) | apf | capf",
+    "greed": "a number in [0, 1]",
+    "phobia": "a number in [0, 1]",
+    "resolution": "replace | search | none",
+    "direction": "reverse | forward",
+    "max_rounds": "an integer >= 0",
+    "max_steps": "an integer >= 1",
+}
+LAYOUTS = ("hex", "sdss-v-fps")
+RESOLUTIONS = ("replace", "search", "none")
+ALGORITHM_ALIASES = {"greedy": "greedy", "gc": "greedy", "markov": "markov", "mc": "markov",
+                     "apf": "apf", "capf": "capf"}
+DIRECTIONS = ("reverse", "forward")
+GRID_DEFAULTS = {
+    "preset": "sdss-v", "layout": "hex", "n_robots": 547, "pitch_mm": None,
+    "alpha_length_mm": None, "beta_length_mm": None, "segment_end_mm": None,
+    "fold_alpha_deg": None, "fold_beta_deg": None, "buffer_mm": None, "step_deg": 0.1,
+    "algorithm": "greedy", "greed": 0.9, "phobia": 0.3, "resolution": "replace",
+    "direction": "reverse", "max_rounds": 50, "max_steps": None,
+}
+NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+
+#: Parameter columns (one per grid key, resolved) in row order.
+PARAM_COLUMNS = ("preset", "layout", "n_robots", "pitch_mm", "alpha_length_mm",
+                 "beta_length_mm", "segment_end_mm", "fold_alpha_deg", "fold_beta_deg",
+                 "buffer_mm", "step_deg", "algorithm",
+                 "greed", "phobia", "resolution", "direction", "max_rounds", "max_steps")
+
+
+@functools.lru_cache(maxsize=8)
+def point_layout(kind: str, n_robots: int, pitch_mm: float) -> Layout:
+    """The layout of a grid point: ``sdss-v-fps`` (the real focal plane; ``n_robots`` and
+    ``pitch_mm`` ignored) or a centred hex grid of ``n_robots`` at ``pitch_mm``."""
+    if kind == "sdss-v-fps":
+        return Layout.sdss_v_fps()
+    return Layout.hex_grid_positions(n_robots, pitch_mm)
+
+
+# =====================================================================================
+# Study definition
+# =====================================================================================
+@dataclass(frozen=True)
+class StudyPoint:
+    """One resolved grid point: every parameter explicit (no preset defaults left)."""
+
+    preset: str
+    layout: str
+    n_robots: int
+    pitch_mm: float
+    alpha_length_mm: float
+    beta_length_mm: float
+    segment_end_mm: float
+    fold_alpha_deg: float
+    fold_beta_deg: float
+    buffer_mm: float
+    step_deg: float
+    algorithm: str
+    greed: float
+    phobia: float
+    resolution: str
+    direction: str
+    max_rounds: int
+    max_steps: int
+    spec: RobotSpec = field(compare=False, repr=False, default=None)  # type: ignore[assignment]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The parameters as plain Python values (the hash input)."""
+        return {k: getattr(self, k) for k in PARAM_COLUMNS}
+
+    @functools.cached_property
+    def canonical(self) -> str:
+        return json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+
+    @functools.cached_property
+    def point_id(self) -> str:
+        """Stable 12-hex-digit id of the point."""
+        return hashlib.sha256(self.canonical.encode()).hexdigest()[:12]
+
+    @property
+    def reach_mm(self) -> float:
+        return self.alpha_length_mm + self.beta_length_mm
+
+    def trial_key(self, base_seed: int, index: int) -> str:
+        """Resume key of trial ``index``: 20 hex digits."""
+        text = f"{self.canonical}|seed={int(base_seed)}|trial={int(index)}"
+        return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+    def trial_seed(self, base_seed: int, index: int) -> int:
+        """Seed of trial ``index`` (a non-negative int64 for ``numpy.random.default_rng``)."""
+        h = hashlib.sha256(self.canonical.encode()).digest()
+        words = (int.from_bytes(h[0:4], "little"), int.from_bytes(h[4:8], "little"))
+        ss = np.random.SeedSequence(entropy=int(base_seed), spawn_key=(*words, int(index)))
+        return int(ss.generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
+@dataclass(frozen=True)
+class Trial:
+    point: StudyPoint
+    index: int
+    key: str
+    seed: int
+
+
+@dataclass(frozen=True)
+class Study:
+    """A parsed, validated study.
+
+    Attributes
+    ----------
+    name, description, reference : str
+    trials : int, trials per point
+    seed : int, base seed
+    check : bool, run checker2d per trial
+    batch : "auto" or int, trials per Dask task
+    grid : {key: tuple of values}, as written (after alias normalisation)
+    points : tuple of StudyPoint, the product of the grid (duplicates removed)
+    source : str, file path or "study <name>"
+    text : str, the TOML text
+    """
+
+    name: str
+    description: str
+    reference: str
+    trials: int
+    seed: int
+    check: bool
+    batch: str | int
+    grid: dict
+    points: tuple
+    source: str
+    text: str = field(repr=False, default="")
+
+    @property
+    def n_trials(self) -> int:
+        return self.trials * len(self.points)
+
+    def varied(self) -> list[str]:
+        """Grid keys with more than one value."""
+        return [k for k, v in self.grid.items() if len(v) > 1]
+
+    def trial_list(self, trials: int | None = None) -> list[Trial]:
+        """All trials, index-major (every point's trial 0, then every point's trial 1 ...),
+        so a partial run covers the whole grid evenly."""
+        n = self.trials if trials is None else int(trials)
+        out = []
+        for i in range(n):
+            for p in self.points:
+                out.append(Trial(p, i, p.trial_key(self.seed, i), p.trial_seed(self.seed, i)))
+        return out
+
