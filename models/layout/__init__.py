@@ -17,8 +17,6 @@ from models.layout.grids import (SDSS_V_RINGS, hex_axial, hex_count, hex_rings, 
                                  nearest_hex_counts)
 from models.layout.neighbours import REACH_TOL_MM
 
-#: Old private name of :func:`nearest_hex_counts`, still imported by twin/studies.py.
-_nearest_hex_counts = nearest_hex_counts
 
 __all__ = ["KINDS", "REACH_TOL_MM", "REQUIRED_COLUMNS", "SDSS_V_FPS_CSV",
            "SDSS_V_RINGS", "Layout", "hex_axial", "hex_count", "hex_rings", "hex_xy",

@@ -15,7 +15,7 @@ radius ``spec.fiducial_buffer_mm`` that the tip (radius ``d / 2``) must not touc
 Default ``d = 2 buffer + margin``, ``D = d + 2`` mm. The margin (default
 :func:`default_margin_mm`) covers the motion between two Euler steps and the
 simplification tolerance, so that a trajectory whose sampled distances are all ``> d``
-passes the dense capsule check (validation/checker2d.py) at ``buffer``: two points of
+passes the dense capsule check (validation/checker2d/) at ``buffer``: two points of
 two arms move at most ``V dt`` closer between samples, ``V = l_alpha w_a + r_max (w_a +
 w_b)`` (rad/s speeds). Fiducials: point-segment distance, ``d_fid = buffer +
 fiducial_buffer + margin``. (If an axis needed more than ``max_points`` breakpoints, its

@@ -17,7 +17,7 @@ from importlib import resources
 from pathlib import Path
 
 from models.errors import RfpError
-from models.layout import _nearest_hex_counts, hex_rings
+from models.layout import hex_rings, nearest_hex_counts
 from models.robot import RobotSpec, list_presets, load_spec
 from twin.studies.spec import (ALGORITHM_ALIASES, DIRECTIONS, GRID_DEFAULTS, GRID_KEYS, LAYOUTS,
                                NAME_RE, RESOLUTIONS, STUDY_KEYS, Study, StudyError, StudyPoint,
@@ -177,7 +177,7 @@ def _check_value(source: str, key: str, v):
         if not is_int(v) or v < 1:
             raise _bad(source, where, v, allowed)
         if hex_rings(v) is None:
-            near = ", ".join(map(str, _nearest_hex_counts(v)))
+            near = ", ".join(map(str, nearest_hex_counts(v)))
             raise _bad(source, where, v, f"{allowed}; nearest: {near}")
         return int(v)
     if key == "algorithm":
