@@ -14,11 +14,11 @@ Plans: :class:`Trajectory`. 3D robot: :class:`RobotGeometry`, :func:`geometry_fo
 """
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
 
 from models.errors import (LayoutError, PlanningError, RfpError, SpecError, TargetError,
                            TrajectoryError, UnknownRobotError)
+from models.lazy import lazy_exports
 from models.robot import RobotSpec, list_presets, load_spec
 
 #: Public name -> module that defines it, imported on first access.
@@ -43,17 +43,7 @@ if TYPE_CHECKING:
     from models.trajectory import Trajectory
 
 
-def __getattr__(name: str):
-    if name not in _LAZY:
-        raise AttributeError(f"module 'models' has no attribute {name!r}")
-    value = getattr(importlib.import_module(_LAZY[name]), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
-
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
 
 __all__ = ["LayoutError", "PlanningError", "RfpError", "SpecError", "TargetError",
            "TrajectoryError", "UnknownRobotError", "RobotSpec", "list_presets", "load_spec",

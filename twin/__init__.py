@@ -15,7 +15,7 @@ Public API (imported on first use, so that ``rfp-twin --help`` stays fast)::
 """
 from __future__ import annotations
 
-import importlib
+from models.lazy import lazy_exports
 
 _EXPORTS = {
     "Reconfiguration": "twin.pipeline", "PlanOptions": "twin.pipeline",
@@ -28,9 +28,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        value = getattr(importlib.import_module(_EXPORTS[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'twin' has no attribute {name!r}")
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

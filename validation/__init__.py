@@ -11,7 +11,7 @@ Modules here may import ``models`` (the instrument and the trajectory data type,
 (:mod:`models.geometry2d`): a checker that shares code with what it checks proves
 nothing.
 """
-from importlib import import_module
+from models.lazy import lazy_exports
 
 _EXPORTS = {
     "check_trajectory": "checker2d", "CheckReport": "checker2d", "Collision": "checker2d",
@@ -23,11 +23,4 @@ _EXPORTS = {
 __all__ = list(_EXPORTS)
 
 
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        return getattr(import_module(f"validation.{_EXPORTS[name]}"), name)
-    raise AttributeError(f"module 'validation' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted([*globals(), *__all__])
+__getattr__, __dir__ = lazy_exports(__name__, {name: f"{__name__}.{module}" for name, module in _EXPORTS.items()})
