@@ -25,8 +25,15 @@ Sections
    of a hex grid nearest its centre for the paper's batch-1 sizes, APF vs CAPF
    (lambda3 0.03, and 0.04 as the paper used for its two largest cases), in the tip
    model (the paper's field: d = 2, D = 4 mm) and the segment model (buffer 2.5 mm,
-   d = 2 buffer + margin). ``--mack-runs`` seeds per size (paper: one run each);
-   converged counts are means over the runs, next to the paper's Table 1.
+   d = 2 buffer + margin; targets drawn as the pipeline draws them for ``apf``,
+   ``twin.pipeline.Reconfiguration.random_targets``). ``--mack-runs`` seeds per size
+   (paper: one run each); converged counts are means over the runs, next to the
+   paper's Table 1.
+
+Both sections plan from random starts (the papers' set-up) with the field kernels
+themselves (:func:`planners.apf.plan_apf`, tip or segment model, no recording), which
+the pipeline's planning step (fold -> targets, segment model) does not offer; rfp-twin's
+fields on the pipeline's own scenarios are in ``bench_compare.py``.
 
 Timings are single-threaded numba kernels; ``kernel`` excludes compilation (one warm-up
 call first) and random-configuration draws. Prints markdown to paste into
@@ -41,13 +48,14 @@ import time
 
 import numpy as np
 
+from bench_common import command_line, cpu_model, load_average, now, python_version, write_block
 from models.array import ArrayGeometry
 from models.layout import Layout
 from models.robot import load_spec
 from planners.apf import ApfSettings, apf_target_margin_mm, plan_apf, random_tip_configs
 from planners.capf import CapfSettings
 from planners.targets import random_targets
-from bench_common import command_line, cpu_model, load_average, now, python_version  # noqa: E402
+from twin.pipeline import PlanOptions, Reconfiguration
 
 #: Macktoobian 2019 Table 1, test batch 1: N -> (APF converged, CAPF converged, lambda3).
 PAPER_TABLE1 = {52: (50, 52, 0.03), 106: (90, 106, 0.03), 234: (196, 234, 0.03),
@@ -171,6 +179,7 @@ def run_macktoobian(sizes, runs, models, seed):
         for n in sizes:
             buffer = 2.5
             geom = ArrayGeometry(spec, nearest_layout(n, spec.pitch_mm), buffer)
+            drawer = Reconfiguration(geom, PlanOptions(algorithm="apf"))  # segment, gain 1
             algs = [("APF", ApfSettings(model=model)),
                     ("CAPF 0.03", CapfSettings(model=model, lambda3=0.03)),
                     ("CAPF 0.04", CapfSettings(model=model, lambda3=0.04))]
@@ -180,10 +189,10 @@ def run_macktoobian(sizes, runs, models, seed):
                 if model == "tip":
                     start = random_tip_configs(geom, rng, 2.1)
                     targets = random_tip_configs(geom, rng, 3.0)
-                else:
+                else:    # targets: the field's margin + 0.5 mm; starts a little closer
                     m = apf_target_margin_mm(geom, algs[0][1])
                     start = random_targets(geom, rng, margin_mm=m + 0.05)
-                    targets = random_targets(geom, rng, margin_mm=m + 0.5)
+                    targets = drawer.random_targets(rng)
                 for name, s in algs:
                     r = plan_apf(geom, start, targets, s, record=False,
                                  algorithm="apf" if name == "APF" else "capf")
@@ -258,11 +267,7 @@ def main(argv=None) -> int:
                                                 args.seed), args)
     lines += [f"Wall time {time.perf_counter() - t0:.0f} s, load {load_average()} (at end).", "",
               "<!-- bench:end -->"]
-    text = "\n".join(lines)
-    print(text)
-    if args.md_out:
-        with open(args.md_out, "w", encoding="utf-8") as fh:
-            fh.write(text + "\n")
+    write_block("\n".join(lines), args.md_out)
     return 0
 
 

@@ -14,10 +14,15 @@ Planners, all from the folded state to the same targets:
 - ``apf`` / ``capf``: Makarem 2014 / Macktoobian 2019 fields on the beta capsules
   (segment model, gain 1, lambda3 0.03), direct fold -> targets, no resolution.
 
+Everything runs through :mod:`twin.pipeline`: targets from
+``Reconfiguration.random_targets`` of the ``apf`` options (the field's margin), each
+planner's planning step (``Reconfiguration.plan``) and the raw delivery
+(``Reconfiguration.deliver`` with ``raw``: the stepwise / field paths, no
+post-processing) with its independent 2D check at the planning buffer.
+
 Per planner: mean efficiency (Eq. 11), convergence of the first run, fold (motion) time,
-tau_pg (planner kernel), the whole call, and the collisions that the independent
-checker (validation/checker2d.py) finds at the planning buffer in the stepwise / field
-output (before any post-processing).
+tau_pg (planner kernel), the whole planning step (``call``: what a user waits for), and
+the collisions that the independent checker (validation/checker2d.py) finds.
 
     .venv/bin/python benchmarks/bench_compare.py                     # N 37, 91; 2.5 mm; 5 seeds
     .venv/bin/python benchmarks/bench_compare.py --robots 37 91 169 --buffer 3.0 --trials 10
@@ -25,45 +30,34 @@ output (before any post-processing).
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from bench_common import command_line, cpu_model, load_average, now, python_version  # noqa: E402
-from models.array import ArrayGeometry  # noqa: E402
-from models.layout import Layout  # noqa: E402
-from models.robot import load_spec  # noqa: E402
-from planners.apf import ApfSettings, apf_target_margin_mm, plan_apf_reconfiguration  # noqa: E402
-from planners.capf import CapfSettings  # noqa: E402
-from planners.solver import PlannerSettings, plan_reconfiguration  # noqa: E402
-from planners.targets import random_targets  # noqa: E402
-from models.trajectory import Trajectory  # noqa: E402
-from validation.checker2d import check_trajectory  # noqa: E402
+from bench_common import command_line, cpu_model, load_average, now, python_version
+from models.layout import Layout
+from models.robot import load_spec
+from twin.pipeline import PlanOptions, Reconfiguration
 
 PLANNERS = ("greedy/replace", "greedy/search", "markov/search", "roadmap/search", "apf", "capf")
 STEP_DEG = 0.1
 
 
-def run_planner(name: str, geom: ArrayGeometry, targets: np.ndarray, seed: int) -> tuple[dict, Trajectory, float]:
-    """(metrics, trajectory fold -> targets, wall seconds of the planning call)."""
+def plan_options(name: str) -> PlanOptions:
+    """The pipeline's options of one planner, delivering its raw (checked) paths."""
+    if name in ("apf", "capf"):      # segment model, gain 1, lambda3 0.03
+        return PlanOptions(algorithm=name, raw=True)
+    alg, resolve = name.split("/")
+    return PlanOptions(algorithm=alg, step_deg=STEP_DEG, resolve=resolve, raw=True)
+
+
+def run_planner(rc: Reconfiguration, targets: np.ndarray, seed: int):
+    """(metrics, independent 2D check of the raw paths, wall seconds of the planning step)."""
     t0 = time.perf_counter()
-    if name in ("apf", "capf"):
-        field = CapfSettings(model="segment") if name == "capf" else ApfSettings(model="segment")
-        plan, res = plan_apf_reconfiguration(geom, targets, field, algorithm=name)
-        m = res.metrics()
-        traj = res.trajectory
-    else:
-        alg, resolve = name.split("/")
-        settings = PlannerSettings(algorithm=alg, step_deg=STEP_DEG, resolve=resolve)
-        plan = plan_reconfiguration(geom, targets, settings, np.random.default_rng([seed, 9]))
-        m = plan.metrics
-        traj = Trajectory.from_plan(plan)
-    return dict(m), traj, time.perf_counter() - t0
+    plan, _ = rc.plan(targets, np.random.default_rng([seed, 9]))
+    wall = time.perf_counter() - t0
+    _, _, check = rc.deliver(plan)
+    return dict(plan.metrics), check, wall
 
 
 def main() -> None:
@@ -76,21 +70,24 @@ def main() -> None:
     args = ap.parse_args()
     planners = tuple(args.planners)
 
-    spec = load_spec("sdss-v").with_overrides(buffer_mm=args.buffer)
+    spec = load_spec("sdss-v")
     print(f"command: {command_line()}")
     print(f"machine: {cpu_model()}, Python {python_version()}; load {load_average()}; {now()}")
     rows = []
     for n in args.robots:
-        geom = ArrayGeometry(spec, Layout.hex_grid_positions(n, spec.pitch_mm), args.buffer)
-        margin = apf_target_margin_mm(geom, ApfSettings(model="segment")) + 0.5
+        layout = Layout.hex_grid_positions(n, spec.pitch_mm)
+        rcs = {p: Reconfiguration.from_names(spec, layout, buffer_mm=args.buffer,
+                                             options=plan_options(p)) for p in planners}
+        # targets every planner can reach: clear by the potential field's barrier + 0.5 mm
+        drawer = Reconfiguration.from_names(spec, layout, buffer_mm=args.buffer,
+                                            options=plan_options("apf"))
         acc = {p: {"eff": [], "conv": [], "fold": [], "pg": [], "call": [], "coll": 0, "bad": 0}
                for p in planners}
         for t in range(args.trials):
             seed = args.seed * 1000 + t
-            targets = random_targets(geom, np.random.default_rng([seed, n]), margin_mm=margin)
+            targets = drawer.random_targets(np.random.default_rng([seed, n]))
             for p in planners:
-                m, traj, wall = run_planner(p, geom, targets, seed)
-                rep = check_trajectory(traj, spec, geom.layout, args.buffer)
+                m, rep, wall = run_planner(rcs[p], targets, seed)
                 a = acc[p]
                 a["eff"].append(m["efficiency"])
                 a["conv"].append(m["convergence"])

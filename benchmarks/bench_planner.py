@@ -18,18 +18,22 @@ Sections
 2. ``kaiju``: the real 500-robot SDSS-V layout (60 fiducials as obstacles), preset
    ``sdss-v-production`` (segment end by the production rule at each buffer), step
    0.1 deg, buffers 1.5-3.5 mm, greedy and markov, FIRST run only (no target
-   replacement, as kaiju's "all 500 home"), next to the figures of
-   ``shared/references/kaiju-anchor.md``. We have no MDP2: our markov is compared with
-   kaiju's MDP and MDP2 rows, labelled as such. Then the issue's speed targets: path
-   generation at 2.0 mm <= 0.1 s (greedy) and <= 0.3 s (markov), median over trials after
-   one warm-up call (numba compilation / cache load excluded).
+   replacement, as kaiju's "all 500 home"), next to the SDSS-V kaiju 1.4.1 anchor
+   figures, measured on this machine kind (benchmarks/RESULTS.md). We have no MDP2: our
+   markov is compared with kaiju's MDP and MDP2 rows, labelled as such. Then the
+   issue's speed targets: path generation at 2.0 mm <= 0.1 s (greedy) and <= 0.3 s
+   (markov), median over trials after one warm-up call (numba compilation / cache load
+   excluded).
 3. kaiju itself, if importable, on the same targets; otherwise one line says the anchor's
    measured figures are used.
 
-Timings: ``tau_pg`` is the planner kernel's own time (Plan.metrics["tau_pg_s"]);
-``call`` is the wall time of the whole ``plan_reconfiguration(..., resolve=False)`` call
-(target checks, kernel, path building, reversal), which is the fairer match for kaiju's
-``pathGen*`` calls (they also record paths). Ratios kaiju / ours use ``call``.
+Plans come from the pipeline's planning step, :meth:`twin.pipeline.Reconfiguration.plan`
+(targets drawn by ``Reconfiguration.random_targets`` with the planner's margin, the step
+rule's MD). Timings: ``tau_pg`` is the planner kernel's own time
+(Plan.metrics["tau_pg_s"]); ``call`` is the wall time of the whole planning step with
+``resolve="none"`` (target checks, kernel, path building, reversal): what a user waits
+for, and the fairer match for kaiju's ``pathGen*`` calls (they also record paths).
+Ratios kaiju / ours use ``call``.
 
 Prints rich tables, then a markdown block (between ``<!-- bench:begin -->`` and
 ``<!-- bench:end -->``) to paste into benchmarks/RESULTS.md.
@@ -37,8 +41,6 @@ Prints rich tables, then a markdown block (between ``<!-- bench:begin -->`` and
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import sys
 import time
 from dataclasses import dataclass, field
@@ -48,17 +50,13 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from models.array import ArrayGeometry
+from bench_common import (command_line, load_average, machine_info, md_table, source_fingerprint,
+                          wide_console, write_block)
 from models.layout import Layout
 from models.robot import load_spec
-from planners.solver import PlannerSettings, plan_reconfiguration
-from planners.stepwise import max_displacement
-from planners.targets import random_targets
-from bench_common import cpu_model, load_average, command_line  # noqa: E402
+from twin.pipeline import PlanOptions, Reconfiguration
 
-console = Console()
-if not console.is_terminal or console.width < 160:
-    console = Console(width=200)  # wide tables stay readable in logs and narrow terminals
+console = wide_console()
 err = Console(stderr=True)
 
 # --- reference figures ------------------------------------------------------------
@@ -75,7 +73,8 @@ PAPER_TABLE3 = {
 TABLE3_ROWS = [("greedy", 1.5, 1.00), ("greedy", 2.5, 0.25), ("greedy", 3.5, 0.10),
                ("markov", 1.5, 1.00), ("markov", 2.5, 0.25), ("markov", 3.5, 0.10)]
 
-#: kaiju-anchor.md, 500-robot SDSS-V grid, step 0.1 deg, reverse to (10, 170):
+#: SDSS-V kaiju 1.4.1 anchor figures, measured on this machine kind (benchmarks/RESULTS.md):
+#: 500-robot SDSS-V grid, step 0.1 deg, reverse to (10, 170);
 #: buffer -> (all 500 home "k/n", median fraction home, median path generation s)
 KAIJU_GREEDY = {1.5: ("2/5", 0.996, 15.8), 2.0: ("1/5", 0.992, 14.9), 2.5: ("2/5", 0.988, 15.7),
                 3.0: ("0/5", 0.984, 18.0), 3.5: ("0/5", 0.956, 18.4)}
@@ -89,50 +88,17 @@ ALG_LABEL = {"greedy": "GC", "markov": "MC"}
 
 
 # --- helpers ------------------------------------------------------------------------
-def machine_info() -> dict:
-    cpu = cpu_model()
-    import numba
-    load = load_average()
-    return {"nproc": os.cpu_count(), "cpu": cpu, "python": platform.python_version(),
-            "numpy": np.__version__, "numba": numba.__version__, "load": load,
-            "date": time.strftime("%Y-%m-%d %H:%M:%S %Z")}
-
-
-def source_fingerprint() -> tuple[str, str]:
-    """Short sha256 of the planner and model sources (no git here), and their newest mtime."""
-    import hashlib
-    from pathlib import Path
-
-    root = Path(__file__).resolve().parent.parent
-    files = sorted(p for d in ("models", "planners") for p in (root / d).rglob("*")
-                   if p.suffix in (".py", ".toml", ".csv") and "__pycache__" not in p.parts)
-    h = hashlib.sha256()
-    newest = 0.0
-    for f in files:
-        h.update(str(f.relative_to(root)).encode())
-        h.update(f.read_bytes())
-        newest = max(newest, f.stat().st_mtime)
-    stamp = time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime(newest)) + " UTC" if files else "n/a"
-    return h.hexdigest()[:12], stamp
-
-
-def draw_targets(geom: ArrayGeometry, step_deg: float, rng: np.random.Generator) -> np.ndarray:
-    """Random targets as `rfp-twin plan` draws them: margin = the step rule's MD."""
-    spec = geom.spec
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
-                          step_deg)
-    return random_targets(geom, rng, margin_mm=md)
-
-
 def warm_up(algorithms) -> None:
     """Load / compile the numba kernels once, on a tiny grid, so no timing includes it."""
     spec = load_spec("sdss-v")
-    geom = ArrayGeometry(spec, Layout.hex_grid(2, spec.pitch_mm), spec.buffer_mm)
     rng = np.random.default_rng(0)
-    tg = draw_targets(geom, 1.0, rng)
+    targets = None
     for alg in algorithms:
-        plan_reconfiguration(geom, tg, PlannerSettings(algorithm=alg, step_deg=1.0, max_steps=200),
-                             rng, resolve=True)
+        rc = Reconfiguration.from_names(spec, Layout.hex_grid(2, spec.pitch_mm),
+                                        options=PlanOptions(algorithm=alg, step_deg=1.0,
+                                                            max_steps=200))
+        targets = rc.random_targets(rng) if targets is None else targets
+        rc.plan(targets, rng)
 
 
 def fmt(x: float, nd: int = 2) -> str:
@@ -153,12 +119,6 @@ def med_range(v) -> str:
     if v.size == 1:
         return fmt_t(v[0])
     return f"{fmt_t(np.median(v))} [{fmt_t(v.min())}-{fmt_t(v.max())}]"
-
-
-def md_table(header: list[str], rows: list[list[str]]) -> str:
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return "\n".join(out)
 
 
 def progress_bar() -> Progress:
@@ -194,15 +154,15 @@ def run_table3(trials: int, seed: int, greed: float, phobia: float) -> list[Tabl
         for ri, (alg, sigma, step) in enumerate(TABLE3_ROWS):
             row = Table3Row(alg, sigma, step)
             task = prog.add_task(f"Table 3 {ALG_LABEL[alg]} {sigma} mm {step} deg", total=trials)
-            geom = ArrayGeometry(spec, layout, sigma)
-            settings = PlannerSettings(algorithm=alg, step_deg=step, greed=greed, phobia=phobia,
-                                       resolve="replace")  # the paper's Sect. 5.2
+            rc = Reconfiguration.from_names(spec, layout, buffer_mm=sigma, options=PlanOptions(
+                algorithm=alg, step_deg=step, greed=greed, phobia=phobia,
+                resolve="replace"))  # the paper's Sect. 5.2
             for t in range(trials):
                 # the same targets for GC and MC rows of one (sigma, step)
-                tg = draw_targets(geom, step, np.random.default_rng([seed, 1, ri % 3, t]))
+                tg = rc.random_targets(np.random.default_rng([seed, 1, ri % 3, t]))
                 rng = np.random.default_rng([seed, 1, ri, t, 1])
                 try:
-                    m = plan_reconfiguration(geom, tg, settings, rng).metrics
+                    m = rc.plan(tg, rng)[0].metrics
                 except Exception as exc:  # noqa: BLE001 (report, keep going)
                     row.failed += 1
                     err.print(f"[red]trial {t} of {alg} {sigma} mm failed:[/] {exc}")
@@ -267,11 +227,6 @@ class AnchorCell:
         return len(self.conv)
 
 
-def production_geometry(buffer_mm: float) -> ArrayGeometry:
-    spec = load_spec("sdss-v-production").with_overrides(buffer_mm=buffer_mm)
-    return ArrayGeometry(spec, Layout.sdss_v_fps(), buffer_mm)
-
-
 def run_anchor(trials: int, seed: int, buffers: list[float], greed: float, phobia: float,
                step: float = 0.1) -> tuple[dict, dict]:
     """First run only (resolve=False) of greedy and markov on the same targets per trial.
@@ -279,23 +234,27 @@ def run_anchor(trials: int, seed: int, buffers: list[float], greed: float, phobi
     Returns ({(alg, buffer): AnchorCell}, {buffer: [targets per trial]}).
     """
     cells, targets = {}, {}
+    layout = Layout.sdss_v_fps()
     with progress_bar() as prog:
-        for bi, b in enumerate(buffers):
-            geom = production_geometry(b)
-            task = prog.add_task(f"kaiju anchor {b} mm ({geom.n_robots} robots)", total=2 * trials)
+        for b in buffers:
+            rcs = {alg: Reconfiguration.from_names(
+                "sdss-v-production", layout, buffer_mm=b, options=PlanOptions(
+                    algorithm=alg, step_deg=step, greed=greed, phobia=phobia, resolve="none"))
+                for alg in ("greedy", "markov")}
+            task = prog.add_task(f"kaiju anchor {b} mm ({layout.n_robots} robots)", total=2 * trials)
             for alg in ("greedy", "markov"):
                 cells[(alg, b)] = AnchorCell(alg, b)
             targets[b] = []
             for t in range(trials):
-                tg = draw_targets(geom, step, np.random.default_rng([seed, 2, int(round(b * 100)), t]))
+                tg = rcs["greedy"].random_targets(
+                    np.random.default_rng([seed, 2, int(round(b * 100)), t]))
                 targets[b].append(tg)
                 for ai, alg in enumerate(("greedy", "markov")):
                     cell = cells[(alg, b)]
-                    settings = PlannerSettings(algorithm=alg, step_deg=step, greed=greed, phobia=phobia)
                     rng = np.random.default_rng([seed, 2, int(round(b * 100)), t, ai])
                     try:
                         t0 = time.perf_counter()
-                        m = plan_reconfiguration(geom, tg, settings, rng, resolve=False).metrics
+                        m = rcs[alg].plan(tg, rng)[0].metrics
                         wall = time.perf_counter() - t0
                     except Exception as exc:  # noqa: BLE001
                         cell.failed += 1
@@ -398,7 +357,8 @@ def run_kaiju_if_installed(targets: dict, buffers: list[float], step: float = 0.
         from kaiju import RobotGrid
     except Exception:  # noqa: BLE001
         line = ("kaiju is not installed (sdss-kaiju's build downloads C++ sources); the "
-                "measured figures of shared/references/kaiju-anchor.md are used instead.")
+                "SDSS-V kaiju 1.4.1 anchor figures, measured on this machine kind "
+                "(benchmarks/RESULTS.md), are used instead.")
         console.print(f"[yellow]{line}[/]")
         return line
     lay = Layout.sdss_v_fps()
@@ -449,19 +409,15 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     ktrials = args.kaiju_trials or args.trials
 
-    info = machine_info()
+    info = machine_info("numba")
     cmd = command_line()
     fp_start, fp_time = source_fingerprint()
     console.rule("rfp-twin planner benchmark")
     console.print(f"command: {cmd}")
-    console.print(f"machine: nproc {info['nproc']}, {info['cpu']}; python {info['python']}, "
-                  f"numpy {info['numpy']}, numba {info['numba']}; load average at start "
-                  f"{info['load']}; {info['date']}")
+    console.print(f"machine (at start): {info}")
     console.print(f"sources: models/ + planners/ sha256 {fp_start} (newest file {fp_time})")
     md = ["<!-- bench:begin -->", f"Command: `{cmd}`", "",
-          f"Machine: nproc {info['nproc']}, {info['cpu']}; Python {info['python']}, "
-          f"numpy {info['numpy']}, numba {info['numba']}; load average at start {info['load']}; "
-          f"{info['date']}.", "",
+          f"Machine (at start): {info}.", "",
           f"Sources: models/ + planners/ sha256 `{fp_start}` (newest file {fp_time}).", ""]
 
     t_all = time.perf_counter()
@@ -486,10 +442,7 @@ def main(argv=None) -> int:
                "numba compilation excluded)", "", report_speed(cells), "",
                run_kaiju_if_installed(targets, args.buffers), "",
                f"Section wall time {time.perf_counter() - t0:.0f} s.", ""]
-    try:
-        load_end = " / ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        load_end = "n/a"
+    load_end = load_average()
     total = time.perf_counter() - t_all
     fp_end, fp_end_time = source_fingerprint()
     if fp_end != fp_start:
@@ -499,13 +452,8 @@ def main(argv=None) -> int:
         console.print(f"[red]{warn}[/]")
         md += [f"**{warn}**", ""]
     md += [f"Total wall time {total:.0f} s; load average at end {load_end}.", "<!-- bench:end -->"]
-    block = "\n".join(md)
     console.rule("markdown for benchmarks/RESULTS.md")
-    # plain print: rich would re-wrap the markdown
-    print(block)
-    if args.md_out:
-        with open(args.md_out, "w", encoding="utf-8") as fh:
-            fh.write(block + "\n")
+    write_block("\n".join(md), args.md_out)   # plain print: rich would re-wrap the markdown
     return 0
 
 

@@ -9,62 +9,58 @@ Run from the repository root::
                                                      [--algorithm greedy|markov]
                                                      [--backend numba|toppra]
                                                      [--presimplify DEG]
-                                                     [--append-results benchmarks/RESULTS.md]
+                                                     [--append-results FILE]
 
 Sections
 --------
 1. ``main``: the 500-robot SDSS-V layout (preset ``--preset``, default
    ``sdss-v-production``, ``Layout.sdss_v_fps()``, 60 fiducials), step 0.1 deg, buffer
    2.0 mm, reverse plans of ``--algorithm`` (default greedy) with deadlock resolution
-   (replacement), one per seed, post-processed with the timing backend ``--backend``
-   and the pre-simplification tolerance ``--presimplify`` (defaults: the pipeline's). For each: per-stage seconds of
-   :func:`planners.postprocess.postprocess` (re-verification included), total, points
-   per axis (median / max), fold time with the acceleration limits next to the
-   stepwise plan's, retries, groups. Timings after one warm-up call (numba compilation
-   or cache load excluded; the first, cold call is printed too). Target: total <= 3 s.
-   Next to kaiju's figures (shared/references/kaiju-anchor.md): post-processing
-   19-35 s, verification replay 9-12 s, median 6 points per axis.
+   (replacement), one per seed (:func:`twin.pipeline.plan_random`), post-processed by
+   the pipeline's delivery step (``Reconfiguration.deliver``) with the timing backend
+   ``--backend`` and the pre-simplification tolerance ``--presimplify`` (defaults: the
+   pipeline's). For each: per-stage seconds of the post-processing (re-verification by
+   the independent 2D checker included), total (the whole step: what a user waits
+   for), points per axis (median / max), fold time with the acceleration limits next
+   to the stepwise plan's, retries, groups. Timings after one warm-up call (numba
+   compilation or cache load excluded; the first, cold call is printed too). Target:
+   total <= 3 s. Next to the SDSS-V kaiju 1.4.1 anchor figures, measured on this
+   machine kind (benchmarks/RESULTS.md): post-processing 19-35 s, verification replay
+   9-12 s, median 6 points per axis.
 2. ``gc``: Sayres 2021 Table 3's GC row at 2.5 mm / 0.25 deg on the paper's 547-robot
    grid (preset ``sdss-v``): fold time with acceleration limits next to the paper's
    12.55 s (which assumes infinite acceleration).
 3. ``compare``: the choices, measured on the first three seeds of ``main``: smoothing
    method (running average vs spline), RDP tolerance, interaction distance, initial
    window, and the timing backend (numba kernel vs the toppra library, per group).
+   These are parameters of :func:`planners.postprocess.postprocess` that the pipeline's
+   options do not carry: each variant runs it with the pipeline's other options and its
+   checker (``twin.pipeline.check_trajectory``).
 4. ``backends``: the whole post-processing of every seed of ``main`` with each timing
    backend (numba kernel, toppra library): groups timed by the library, fallbacks to
    the kernel, total and timing seconds, fold time, points per axis, largest measured
    |v| and |a|; the <= 3 s target applies to the toppra column.
 
-Prints tables and a markdown section; ``--append-results FILE`` appends that section
-to FILE in one write (re-reading it first).
+Prints tables and a markdown section to paste into benchmarks/RESULTS.md (a table of
+current figures kept by hand); ``--append-results FILE`` only adds a line saying to paste
+it into FILE: nothing is written.
 """
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
-
-from models.array import ArrayGeometry  # noqa: E402
-from models.layout import Layout  # noqa: E402
-from models.robot import load_spec  # noqa: E402
-from planners.postprocess import DEFAULT_PRESIMPLIFY_DEG, postprocess  # noqa: E402
-from validation.checker2d import check_trajectory  # noqa: E402
-from planners.smoothing import smooth_plan, window_for_limits  # noqa: E402
-from planners.solver import PlannerSettings, plan_reconfiguration  # noqa: E402
-from planners.stepwise import max_displacement  # noqa: E402
-from planners.targets import random_targets  # noqa: E402
-from planners.timing import (DEFAULT_BACKEND, interaction_groups, interaction_pairs,  # noqa: E402
-                             time_group)
-from bench_common import cpu_model, load_average, command_line  # noqa: E402
+from bench_common import command_line, machine_info, paste_note
+from models.layout import Layout
+from planners.postprocess import DEFAULT_PRESIMPLIFY_DEG, postprocess
+from planners.smoothing import smooth_plan, window_for_limits
+from planners.timing import DEFAULT_BACKEND, interaction_groups, interaction_pairs, time_group
+from twin.pipeline import PlanOptions, Reconfiguration, check_trajectory, plan_random
 
 TARGET_S = 3.0
 PAPER_GC_FOLD_S = 12.55          # Sayres 2021 Table 3, GC, 2.5 mm, 0.25 deg, 547 robots
@@ -72,24 +68,29 @@ KAIJU = {"post_s": "19-35", "verify_s": "9-12", "points_median": 6}
 STAGES = ("smooth", "group", "time", "simplify", "verify", "total")
 
 
-def machine_info() -> str:
-    cpu = cpu_model()
-    import numba
-    load = load_average()
-    return (f"{os.cpu_count()} cores, {cpu}; Python {platform.python_version()}, numpy "
-            f"{np.__version__}, numba {numba.__version__}; load {load}; "
-            f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}")
+def scenario(preset: str, layout: Layout, buffer_mm: float, seeds, *, step_deg: float = 0.1,
+             algorithm: str = "greedy", backend: str = DEFAULT_BACKEND):
+    """The array and one plan per seed: ``(Reconfiguration, [Plan])``. Seeded random
+    targets (clear by the step rule's MD) and reverse plans with target replacement
+    (:func:`twin.pipeline.plan_random`, the sequence of ``rfp-twin plan --seed S``)."""
+    rc = Reconfiguration.from_names(preset, layout, buffer_mm=buffer_mm, options=PlanOptions(
+        algorithm=algorithm, step_deg=step_deg, resolve="replace", timing_backend=backend))
+    return rc, [plan_random(rc.geom, s, rc.options)[1] for s in seeds]
 
 
-def make_plan(geom: ArrayGeometry, seed: int, step_deg: float, algorithm: str = "greedy"):
-    """Seeded random targets (clear by the step rule's MD) and a reverse plan."""
-    spec = geom.spec
-    rng = np.random.default_rng(seed)
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
-                          step_deg)
-    targets = random_targets(geom, rng, margin_mm=md)
-    settings = PlannerSettings(algorithm=algorithm, step_deg=step_deg, resolve="replace")
-    return plan_reconfiguration(geom, targets, settings, rng)
+def deliver(rc: Reconfiguration, plan, **variant):
+    """Post-process ``plan``: ``(Trajectory, PostprocessReport)``.
+
+    The pipeline's delivery step (``rc.deliver``) when ``variant`` is empty; otherwise
+    :func:`planners.postprocess.postprocess` with ``variant`` (parameters the pipeline's
+    options do not carry), the pipeline's budget, point limit and timing backend, and its
+    checker."""
+    if not variant:
+        traj, post, _ = rc.deliver(plan)
+        return traj, post
+    o = rc.options
+    return postprocess(plan, rc.geom, budget_mm=o.budget_mm, max_points=o.max_points,
+                       backend=o.timing_backend, verifier=check_trajectory, **variant)
 
 
 def med(x) -> float:
@@ -104,19 +105,17 @@ def fmt_range(x, f="{:.2f}") -> str:
 # =====================================================================================
 def bench_main(seeds, preset="sdss-v-production", algorithm="greedy",
                backend=DEFAULT_BACKEND, presimplify=DEFAULT_PRESIMPLIFY_DEG) -> tuple[list[str], dict]:
-    spec = load_spec(preset)
-    geom = ArrayGeometry(spec, Layout.sdss_v_fps(), 2.0)
-    plans = []
-    for s in seeds:
-        plans.append(make_plan(geom, s, 0.1, algorithm))
+    rc, plans = scenario(preset, Layout.sdss_v_fps(), 2.0, seeds, algorithm=algorithm,
+                         backend=backend)
+    spec = rc.spec
+    variant = {} if presimplify == DEFAULT_PRESIMPLIFY_DEG else {"presimplify_deg": presimplify}
     t0 = time.perf_counter()
-    postprocess(plans[0], geom, backend=backend, verifier=check_trajectory,       # warm-up (numba compile / cache load)
-                presimplify_deg=presimplify)
+    deliver(rc, plans[0], **variant)       # warm-up (numba compile / cache load)
     cold = time.perf_counter() - t0
     rows = []
     for s, plan in zip(seeds, plans):
         t0 = time.perf_counter()
-        traj, rep = postprocess(plan, geom, backend=backend, presimplify_deg=presimplify, verifier=check_trajectory)
+        traj, rep = deliver(rc, plan, **variant)
         wall = time.perf_counter() - t0
         rows.append((s, plan, rep, wall))
         st = rep.stage_seconds
@@ -181,19 +180,19 @@ def bench_main(seeds, preset="sdss-v-production", algorithm="greedy",
 # =====================================================================================
 def bench_backends(seeds, preset="sdss-v-production", algorithm="greedy") -> list[str]:
     """The whole post-processing of each seed with each timing backend."""
-    spec = load_spec(preset)
-    geom = ArrayGeometry(spec, Layout.sdss_v_fps(), 2.0)
-    plans = [make_plan(geom, s, 0.1, algorithm) for s in seeds]
+    rc, plans = scenario(preset, Layout.sdss_v_fps(), 2.0, seeds, algorithm=algorithm)
+    by_backend = {be: Reconfiguration(rc.geom, replace(rc.options, timing_backend=be))
+                  for be in ("numba", "toppra")}
     cold = {}
-    for be in ("numba", "toppra"):
+    for be, rcb in by_backend.items():
         t0 = time.perf_counter()
-        postprocess(plans[0], geom, backend=be, verifier=check_trajectory)        # warm-up (compile / cache / import)
+        deliver(rcb, plans[0])        # warm-up (compile / cache / import)
         cold[be] = time.perf_counter() - t0
     res = {}
     for s, plan in zip(seeds, plans):
-        for be in ("numba", "toppra"):
+        for be, rcb in by_backend.items():
             t0 = time.perf_counter()
-            _, rep = postprocess(plan, geom, backend=be, verifier=check_trajectory)
+            _, rep = deliver(rcb, plan)
             res[s, be] = (time.perf_counter() - t0, rep)
             print(f"  seed {s} {be}: total {res[s, be][0]:.2f} s (time {rep.stage_seconds['time']:.2f}); "
                   f"fold {rep.duration_s:.3f} s; points {rep.points_per_axis_median:.0f}/"
@@ -235,13 +234,11 @@ def bench_backends(seeds, preset="sdss-v-production", algorithm="greedy") -> lis
 
 # =====================================================================================
 def bench_gc(seeds) -> list[str]:
-    spec = load_spec("sdss-v")
-    geom = ArrayGeometry(spec, Layout.sdss_v_grid(), 2.5)
+    rc, plans = scenario("sdss-v", Layout.sdss_v_grid(), 2.5, seeds, step_deg=0.25)
     rows = []
-    for s in seeds:
-        plan = make_plan(geom, s, 0.25)
+    for s, plan in zip(seeds, plans):
         t0 = time.perf_counter()
-        _, rep = postprocess(plan, geom, verifier=check_trajectory)
+        _, rep = deliver(rc, plan)
         wall = time.perf_counter() - t0
         rows.append((s, plan, rep, wall))
         print(f"  GC 547 seed {s}: fold {plan.metrics['fold_time_s']:.2f} -> {rep.duration_s:.2f} s, "
@@ -266,17 +263,16 @@ def bench_gc(seeds) -> list[str]:
 
 # =====================================================================================
 def bench_compare(seeds) -> list[str]:
-    spec = load_spec("sdss-v-production")
-    geom = ArrayGeometry(spec, Layout.sdss_v_fps(), 2.0)
-    plans = [make_plan(geom, s, 0.1) for s in seeds]
-    postprocess(plans[0], geom, verifier=check_trajectory)
+    rc, plans = scenario("sdss-v-production", Layout.sdss_v_fps(), 2.0, seeds)
+    spec, geom = rc.spec, rc.geom
+    deliver(rc, plans[0])      # warm-up
 
     def run(**kw):
         out = []
         for plan in plans:
             t0 = time.perf_counter()
             try:
-                _, rep = postprocess(plan, geom, **kw, verifier=check_trajectory)
+                _, rep = deliver(rc, plan, **kw)
                 out.append((time.perf_counter() - t0, rep))
             except Exception as exc:                   # report, do not stop the study
                 out.append((float("nan"), exc))
@@ -361,10 +357,11 @@ def main(argv=None) -> int:
                     help="timing backend of main")
     ap.add_argument("--presimplify", type=float, default=DEFAULT_PRESIMPLIFY_DEG,
                     help="pre-simplification tolerance of main, deg (0: off)")
-    ap.add_argument("--append-results", type=Path, default=None)
+    ap.add_argument("--append-results", type=Path, default=None, metavar="FILE",
+                    help="say to paste the markdown section into FILE (nothing is written)")
     args = ap.parse_args(argv)
     header = ["", "## Post-processing: smooth + time + simplify + re-verify (issue #5)", "",
-              f"- Machine: {machine_info()}", f"- Command: `{command_line()}`", ""]
+              f"- Machine: {machine_info('numba')}", f"- Command: `{command_line()}`", ""]
     print("\n".join(header[1:]))
     md: list[str] = list(header)
     if args.only in ("main", "all"):
@@ -385,13 +382,7 @@ def main(argv=None) -> int:
     print("\n<!-- bench_postprocess:begin -->")
     print(text)
     print("<!-- bench_postprocess:end -->")
-    if args.append_results is not None:
-        path = args.append_results
-        existing = path.read_text(encoding="utf-8") if path.exists() else ""   # re-read now
-        sep = "" if not existing or existing.endswith("\n") else "\n"
-        with open(path, "a", encoding="utf-8") as fh:                          # one write
-            fh.write(sep + text)
-        print(f"appended {len(text)} characters to {path}")
+    paste_note(args.append_results)
     return 0
 
 

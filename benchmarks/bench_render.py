@@ -5,11 +5,11 @@ Run from the repository root::
 
     .venv/bin/python benchmarks/bench_render.py [--n 547] [--frames 60]
         [--width 1280 --height 720] [--cameras top oblique] [--no-video] [--no-full]
-        [--frames-dir benchmarks/frames] [--append benchmarks/RESULTS.md]
+        [--frames-dir benchmarks/frames] [--append FILE]
 
-The fold is made as ``benchmarks/bench_sim.py`` makes it (random targets on
-``make_geom(547, 2.5)``, greedy reverse plan, seed 1, ``Trajectory.from_plan(plan)
-.reversed()``: targets -> fold) and simulated once (``twin.sim.simulate``, angles every
+The fold is made as ``benchmarks/bench_sim.py`` makes it (``bench_common.hex_fold``:
+:func:`twin.pipeline.plan_random` on a hex grid of ``--n`` positions at ``--buffer``,
+greedy reverse plan, seed 1, ``Trajectory.from_plan(plan).reversed()``: targets -> fold) and simulated once (``twin.sim.simulate``, angles every
 20 ms). For each camera, ``--frames`` consecutive frames around mid-fold (30 frames/s of
 video, speed-up 1) are drawn with :class:`twin.render.FrameRenderer` and the lean
 settings; the figure is frames per wall second of drawing (scene update, GL render,
@@ -20,51 +20,30 @@ renders the whole fold with the top camera at speed-up 2 into an MP4 (encoding
 included) and counts its frames back. Also times a .rrd recording of the same run.
 
 Writes ``top.png`` and ``oblique.png`` (640x360, mid-fold) to ``--frames-dir``.
-Target of issue #3: 1280x720 at >= 25 frames/s. Ends with a markdown block for RESULTS.md;
-``--append FILE`` appends it to FILE (re-read just before, appended in one write).
+Target of issue #3: 1280x720 at >= 25 frames/s. Ends with a markdown block to paste into
+benchmarks/RESULTS.md (a table of current figures kept by hand); ``--append FILE`` only
+adds a line saying to paste it into FILE: nothing is written.
 """
 from __future__ import annotations
 
 import argparse
 import os
-import platform
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))  # for tests.planners.conftest
+import twin.render as render  # first: picks MUJOCO_GL before mujoco is imported
 
-import twin.render as render  # noqa: E402  (first: picks MUJOCO_GL before mujoco is imported)
+import imageio.v2 as iio2
+import numpy as np
 
-import imageio.v2 as iio2  # noqa: E402
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-
-from models.mjcf import build_model  # noqa: E402
-from models.trajectory import Trajectory  # noqa: E402
-from tests.planners.conftest import make_geom, plan_random  # noqa: E402
-from twin.record import record_run  # noqa: E402
-from twin.render import (FrameRenderer, RenderSettings, frame_timeline, render_run,  # noqa: E402
-                         save_png)
-from twin.sim import SimSettings, simulate  # noqa: E402
-from bench_common import command_line, cpu_model  # noqa: E402
-
-
-def machine_info() -> str:
-    cpu = cpu_model()
-    return (f"{cpu}, {os.cpu_count()} cores (load {load()}), Python {platform.python_version()}, "
-            f"mujoco {mujoco.__version__}, numpy {np.__version__}, "
-            f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}")
-
-
-def load() -> str:
-    try:
-        return " / ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        return "n/a"
+from bench_common import ROOT, command_line, hex_fold, load_average, machine_info, paste_note
+from models.mjcf import build_model
+from models.trajectory import Trajectory
+from twin.record import record_run
+from twin.render import FrameRenderer, RenderSettings, frame_timeline, render_run, save_png
+from twin.sim import SimSettings, simulate
 
 
 def time_frames(fr: FrameRenderer, angles: np.ndarray, states: np.ndarray) -> tuple[float, float]:
@@ -91,17 +70,18 @@ def main() -> int:
     ap.add_argument("--no-video", action="store_true", help="skip the whole-fold MP4")
     ap.add_argument("--no-full", action="store_true", help="skip the default-settings comparison")
     ap.add_argument("--frames-dir", type=Path, default=ROOT / "benchmarks" / "frames")
-    ap.add_argument("--append", type=Path, default=None, help="append the markdown block here")
+    ap.add_argument("--append", type=Path, default=None, metavar="FILE",
+                    help="say to paste the markdown block into FILE (nothing is written: "
+                         "benchmarks/RESULTS.md is a table kept by hand)")
     args = ap.parse_args()
 
-    print(f"machine: {machine_info()}")
+    print(f"machine: {machine_info('mujoco')}")
     print(f"command: {command_line()}")
     print(f"OpenGL: MUJOCO_GL={render.require_backend()}, {render.gl_renderer_info()}")
-    geom = make_geom(args.n, args.buffer)
-    t0 = time.perf_counter()
-    _, plan = plan_random(geom, args.seed)
+    rc, plan, t_plan = hex_fold(args.n, args.buffer, args.seed)
+    geom = rc.geom
     traj = Trajectory.from_plan(plan).reversed()
-    print(f"plan: {plan.n_robots} robots, complete={plan.complete}, {time.perf_counter() - t0:.1f} s; "
+    print(f"plan: {plan.n_robots} robots, complete={plan.complete}, {t_plan:.1f} s; "
           f"fold trajectory {traj.duration:.2f} s")
     twin = build_model(geom.spec, geom.layout)
     t0 = time.perf_counter()
@@ -138,7 +118,7 @@ def main() -> int:
         print(f"{cam} {args.width}x{args.height} lean: {1 / wall:.1f} frames/s wall "
               f"({wall * 1e3:.1f} ms/frame), {cpu * 1e3:.1f} ms CPU/frame ({1 / cpu:.1f} frames/s "
               f"per CPU second); {nsc} scene geoms, {sections[-1]} facets per circle; "
-              f"setup {t_setup:.2f} s{extra}; load {load()}")
+              f"setup {t_setup:.2f} s{extra}; load {load_average()}")
 
     # frames to look at
     args.frames_dir.mkdir(parents=True, exist_ok=True)
@@ -171,11 +151,12 @@ def main() -> int:
 
     lines = ["", f"## Offscreen rendering: the {plan.n_robots}-robot fold at "
              f"{args.width}x{args.height} (`benchmarks/bench_render.py`)", "",
-             f"- machine: {machine_info()}",
+             f"- machine: {machine_info('mujoco')}",
              f"- command: `{command_line()}`",
              f"- OpenGL: `MUJOCO_GL={render.require_backend()}`, {render.gl_renderer_info()} "
              "(software rasteriser, no GPU)",
-             f"- scene: `plan_random(make_geom({args.n}, {args.buffer}), seed={args.seed})`, fold "
+             f"- scene: `twin.pipeline.plan_random` on hex:{args.n} at {args.buffer} mm, seed "
+             f"{args.seed}, fold "
              f"{traj.duration:.2f} s simulated; {len(angles)} consecutive frames around mid-fold, "
              "robots coloured by state; lean settings (no MSAA, shadows, reflections, skybox, "
              "haze, fog or post-processing; fiber sites hidden; round parts re-meshed at "
@@ -197,14 +178,10 @@ def main() -> int:
     lines.append(f"- .rrd recording of the same run: {t_rec:.2f} s, {rrd_mb:.1f} MB")
     lines.append(f"- frames: `benchmarks/frames/top.png`, `benchmarks/frames/oblique.png` "
                  "(640x360, mid-fold)")
-    lines.append(f"- load average after the run: {load()} on {os.cpu_count()} cores (shared)")
+    lines.append(f"- load average after the run: {load_average()} on {os.cpu_count()} cores (shared)")
     block = "\n".join(lines) + "\n"
     print("\n<!-- bench-render:begin -->" + block + "<!-- bench-render:end -->")
-    if args.append is not None:
-        text = args.append.read_text(encoding="utf-8") if args.append.exists() else ""
-        with open(args.append, "a", encoding="utf-8") as fh:
-            fh.write(("" if text.endswith("\n") or not text else "\n") + block)
-        print(f"appended to {args.append}")
+    paste_note(args.append)
     return 0
 
 

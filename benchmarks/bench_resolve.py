@@ -8,9 +8,10 @@ Run from the repository root::
         [--md-out FILE] [--no-check] [--report-only]
 
 On the paper's 547 all-robot grid (preset ``sdss-v``, Sayres 2021 Table 3), for each
-buffer and algorithm, N trials: seeded random targets (margin = the step rule's MD, as
-``rfp-twin plan`` draws them), then the same targets planned twice with the same
-generator seed, reverse planning:
+buffer and algorithm, N trials: seeded random targets (``Reconfiguration.random_targets``
+of :mod:`twin.pipeline`: margin = the step rule's MD, as ``rfp-twin plan`` draws them),
+then the same targets planned twice by the pipeline's planning step
+(``Reconfiguration.plan``) with the same generator seed, reverse planning:
 
 * ``replace``: one target per deadlocked group replaced, everything re-planned (Sayres
   2021 Sect. 5.2; ``PlannerSettings(resolve="replace")``);
@@ -21,8 +22,10 @@ generator seed, reverse planning:
 Both start from the same first stepwise run. Step: 0.25 deg below 3 mm, 0.1 deg from
 3 mm (``--steps`` overrides). Reported per cell: efficiency (Eq. 11) of both, robots
 replaced per trial, groups the first run left, groups resolved by search, search
-failures, search time, and (unless ``--no-check``) the collisions the independent 2D
-checker finds in every search plan at the planning buffer (must be 0).
+failures, search time, the wall time of the whole planning step (what a user waits
+for), and (unless ``--no-check``) the collisions the independent 2D checker finds in
+every search plan at the planning buffer (must be 0; the pipeline's raw delivery,
+``Reconfiguration.deliver``).
 
 Every trial is appended to a JSON-lines file (``--raw``, default
 ``out/bench_resolve.jsonl``) as it finishes, so an interrupted run keeps what it
@@ -33,8 +36,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -44,13 +45,10 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from bench_common import command_line, cpu_model, load_average, now  # noqa: E402
+from bench_common import (command_line, load_average, machine_info, md_table, source_fingerprint,
+                          wide_console, write_block)
 
-console = Console()
-if not console.is_terminal or console.width < 160:
-    console = Console(width=200)
+console = wide_console()
 err = Console(stderr=True)
 ALG_LABEL = {"greedy": "GC", "markov": "MC"}
 
@@ -59,41 +57,22 @@ def default_step(buffer_mm: float) -> float:
     return 0.25 if buffer_mm < 3.0 else 0.1
 
 
-def source_fingerprint() -> str:
-    """Short sha256 of models/ and planners/ sources (what the figures were made with)."""
-    import hashlib
-
-    root = Path(__file__).resolve().parent.parent
-    h = hashlib.sha256()
-    for f in sorted(p for d in ("models", "planners") for p in (root / d).rglob("*")
-                    if p.suffix in (".py", ".toml", ".csv") and "__pycache__" not in p.parts):
-        h.update(str(f.relative_to(root)).encode())
-        h.update(f.read_bytes())
-    return h.hexdigest()[:12]
-
-
 def run_trial(alg: str, buffer_mm: float, step: float, trial: int, seed: int,
               greed: float, phobia: float, check: bool) -> dict:
     """Plan one set of targets with both resolvers. Returns one JSON-able row."""
-    from models.array import ArrayGeometry
-    from models.layout import Layout
-    from models.robot import load_spec
-    from planners.solver import PlannerSettings, plan_reconfiguration
-    from planners.stepwise import max_displacement
-    from planners.targets import random_targets
+    from twin.pipeline import PlanOptions, Reconfiguration
 
-    spec = load_spec("sdss-v")
-    layout = Layout.sdss_v_grid(pitch_mm=spec.pitch_mm)
-    geom = ArrayGeometry(spec, layout, buffer_mm)
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
     key = [seed, int(round(buffer_mm * 100)), trial]
-    targets = random_targets(geom, np.random.default_rng(key), margin_mm=md)
+    targets = None
     row = {"alg": alg, "buffer": buffer_mm, "step": step, "trial": trial, "seed": seed}
     for resolver in ("replace", "search"):
-        settings = PlannerSettings(algorithm=alg, step_deg=step, greed=greed, phobia=phobia,
-                                   resolve=resolver)
+        options = PlanOptions(algorithm=alg, step_deg=step, greed=greed, phobia=phobia,
+                              resolve=resolver, raw=True)
+        rc = Reconfiguration.from_names("sdss-v", "sdss-v-547", buffer_mm=buffer_mm, options=options)
+        if targets is None:                      # the same targets for both resolvers
+            targets = rc.random_targets(np.random.default_rng(key))
         t0 = time.perf_counter()
-        plan = plan_reconfiguration(geom, targets, settings, np.random.default_rng(key + [1]))
+        plan, _ = rc.plan(targets, np.random.default_rng(key + [1]))
         wall = time.perf_counter() - t0
         m = plan.metrics
         out = {k: (float(v) if isinstance(v, (float, np.floating)) else int(v))
@@ -102,12 +81,9 @@ def run_trial(alg: str, buffer_mm: float, step: float, trial: int, seed: int,
         out["complete"] = bool(plan.complete)
         if resolver == "search":
             out["targets_kept"] = int(np.sum(np.all(plan.targets == targets, axis=1)))
-            if check:
-                from models.trajectory import Trajectory
-                from validation.checker2d import check_trajectory
-
+            if check:       # the raw paths, at the planning buffer
                 t1 = time.perf_counter()
-                rep = check_trajectory(Trajectory.from_plan(plan), spec, layout, buffer_mm)
+                _, _, rep = rc.deliver(plan)
                 out["collisions"] = len(rep.collisions)
                 out["min_clearance_mm"] = float(rep.min_clearance_mm)
                 out["check_s"] = time.perf_counter() - t1
@@ -172,9 +148,7 @@ def report(rows: list[dict], cells: list[tuple[str, float, float]]) -> str:
         t.add_row(*row)
         md.append(row)
     console.print(t)
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    out += ["| " + " | ".join(r) + " |" for r in md]
-    return "\n".join(out)
+    return md_table(header, md)
 
 
 def main(argv=None) -> int:
@@ -203,12 +177,11 @@ def main(argv=None) -> int:
     cells = [(alg, b, s) for alg in args.algorithms for b, s in zip(args.buffers, steps)]
     raw = Path(args.raw)
     cmd = command_line()
-    fp = source_fingerprint()
-    load_start = load_average()
+    fp = source_fingerprint()[0]
+    machine = machine_info()
     console.rule("rfp-twin deadlock resolution benchmark")
     console.print(f"command: {cmd}")
-    console.print(f"machine: nproc {os.cpu_count()}, {cpu_model()}; python "
-                  f"{platform.python_version()}; load average at start {load_start}; {now()}")
+    console.print(f"machine (at start): {machine}")
     console.print(f"sources: models/ + planners/ sha256 {fp}")
     t_all = time.perf_counter()
     done = {(r["alg"], r["buffer"], r["step"], r["trial"]) for r in load_rows(raw)
@@ -245,16 +218,12 @@ def main(argv=None) -> int:
         console.print(f"[yellow]trials made with sources {', '.join(map(str, used))}[/]")
     table = report(rows, cells)
     md = ["<!-- bench:begin -->", f"Command: `{cmd}`", "",
-          f"Machine: nproc {os.cpu_count()}, {cpu_model()}; Python {platform.python_version()}; "
-          f"load average at start {load_start}, at end {load_average()}; {now()}.", "",
+          f"Machine (at start): {machine}; load average at end {load_average()}.", "",
           f"Sources: models/ + planners/ sha256 `{', '.join(map(str, used)) or fp}`. "
           f"Trials file: `{raw}`.", "", table, "",
           f"Wall time of this invocation {time.perf_counter() - t_all:.0f} s.", "<!-- bench:end -->"]
-    block = "\n".join(md)
     console.rule("markdown for benchmarks/RESULTS.md")
-    print(block)
-    if args.md_out:
-        Path(args.md_out).write_text(block + "\n", encoding="utf-8")
+    write_block("\n".join(md), args.md_out)
     return 0
 
 

@@ -7,10 +7,11 @@ Run from the repository root::
                                              [--timestep 0.004 ...] [--direction fold|unfold]
                                              [--n 547]
 
-The plan is made as the planner tests make it (``tests.planners.conftest``: random
-targets on ``make_geom(547, 2.5)``, greedy reverse planning, step 0.1 deg, deadlocks
-resolved), turned into a Trajectory (``Trajectory.from_plan``) and, for ``fold``, played
-backwards (targets -> folded state). The model (preset ``sdss-v``, its ``[geometry]``
+The plan comes from the pipeline (:func:`twin.pipeline.plan_random` through
+``bench_common.hex_fold``: preset ``sdss-v`` on a centred hex grid of ``--n`` positions at
+``--buffer``, seeded random targets, greedy reverse planning at ``--step`` with target
+replacement), turned into a Trajectory (``Trajectory.from_plan``) and, for ``fold``,
+played backwards (targets -> folded state). The model (preset ``sdss-v``, its ``[geometry]``
 table) is built with ``models.mjcf.build_model`` and simulated with ``twin.sim.simulate``
 (contacts recorded every step, angles every 20 ms).
 
@@ -22,33 +23,15 @@ Target of issue #3: real-time factor >= 2. Ends with a markdown block for RESULT
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))  # for tests.planners.conftest
-
-import mujoco  # noqa: E402
-
-from models.mjcf import ModelOptions, build_model  # noqa: E402
-from models.trajectory import Trajectory  # noqa: E402
-from tests.planners.conftest import make_geom, plan_random  # noqa: E402
-from twin.sim import SimSettings, simulate  # noqa: E402
-from bench_common import cpu_model, load_average, command_line  # noqa: E402
-
-
-def machine_info() -> str:
-    cpu = cpu_model()
-    load = load_average()
-    return (f"{cpu}, {os.cpu_count()} cores (load {load}), Python {platform.python_version()}, "
-            f"mujoco {mujoco.__version__}, numpy {np.__version__}, "
-            f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}")
+from bench_common import command_line, hex_fold, machine_info
+from models.mjcf import ModelOptions, build_model
+from models.trajectory import Trajectory
+from twin.sim import SimSettings, simulate
 
 
 def main() -> int:
@@ -61,12 +44,10 @@ def main() -> int:
     ap.add_argument("--direction", choices=("fold", "unfold"), default="fold")
     args = ap.parse_args()
 
-    print(f"machine: {machine_info()}")
+    print(f"machine: {machine_info('mujoco')}")
     print(f"command: {command_line()}")
-    geom = make_geom(args.n, args.buffer)
-    t0 = time.perf_counter()
-    _, plan = plan_random(geom, args.seed, step_deg=args.step)
-    t_plan = time.perf_counter() - t0
+    rc, plan, t_plan = hex_fold(args.n, args.buffer, args.seed, args.step)
+    geom = rc.geom
     traj = Trajectory.from_plan(plan)
     if args.direction == "fold":
         traj = traj.reversed()
@@ -95,10 +76,10 @@ def main() -> int:
         rows.append((dt, t_build, report, steps_s, rtf_total, err))
 
     print("\n<!-- bench-sim:begin -->")
-    print(f"- machine: {machine_info()}")
+    print(f"- machine: {machine_info('mujoco')}")
     print(f"- command: `{command_line()}`")
-    print(f"- plan: {plan.n_robots} robots, make_geom({args.n}, {args.buffer}), plan_random seed "
-          f"{args.seed}, step {args.step} deg, complete={plan.complete}; {args.direction} "
+    print(f"- plan: {plan.n_robots} robots, hex:{args.n} at {args.buffer} mm, "
+          f"twin.pipeline.plan_random seed {args.seed}, step {args.step} deg, complete={plan.complete}; {args.direction} "
           f"trajectory {traj.duration:.2f} s")
     print()
     print("| timestep ms | build s | simulated s | wall s | steps/s | real-time x | "

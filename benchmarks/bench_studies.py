@@ -18,45 +18,19 @@ load (a few seconds).
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import shutil
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from twin.studies import load_study, read_results, run_study  # noqa: E402
-from twin.study_report import write_report  # noqa: E402
-from bench_common import command_line, cpu_model  # noqa: E402
+from bench_common import command_line, load_average, machine_info
+from twin.studies import load_study, read_results, run_study
+from twin.study_report import write_report
 
 DETERMINISTIC = ("status", "efficiency", "convergence", "fold_time_s", "n_replaced",
                  "n_deadlocked", "rounds", "n_steps", "collisions")
-
-
-def machine_info() -> dict:
-    cpu = cpu_model()
-    import dask
-    import distributed
-    import numba
-    import pyarrow
-
-    return {"nproc": os.cpu_count(), "cpu": cpu, "python": platform.python_version(),
-            "numpy": np.__version__, "numba": numba.__version__, "dask": dask.__version__,
-            "distributed": distributed.__version__, "pyarrow": pyarrow.__version__,
-            "date": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())}
-
-
-def load() -> str:
-    try:
-        return " / ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        return "n/a"
 
 
 def main(argv=None) -> int:
@@ -71,14 +45,12 @@ def main(argv=None) -> int:
 
     study = load_study(args.study)
     counts = [int(x) for x in args.workers.split(",") if x.strip()]
-    info = machine_info()
+    info = machine_info("numba", "dask", "distributed", "pyarrow")
     root = args.keep or Path(tempfile.mkdtemp(prefix="bench-studies-"))
     root.mkdir(parents=True, exist_ok=True)
     n_total = (args.trials or study.trials) * len(study.points)
     print(f"command: {command_line()}")
-    print(f"machine: nproc {info['nproc']}, {info['cpu']}; Python {info['python']}, numpy "
-          f"{info['numpy']}, numba {info['numba']}, dask/distributed {info['dask']}, pyarrow "
-          f"{info['pyarrow']}; load average {load()}; {info['date']}")
+    print(f"machine: {info}")
     print(f"study {study.name}: {len(study.points)} points x {args.trials or study.trials} "
           f"trials = {n_total} trials, 2D check {'on' if study.check else 'off'}")
 
@@ -88,7 +60,7 @@ def main(argv=None) -> int:
         out = root / f"{study.name}-w{w}"
         if out.exists():
             shutil.rmtree(out)
-        load_start = load()
+        load_start = load_average()
         t0 = time.perf_counter()
         s = run_study(study, out, workers=w, processes=True, trials=args.trials, progress=True)
         wall = time.perf_counter() - t0
@@ -98,11 +70,11 @@ def main(argv=None) -> int:
         cpu = float(np.nansum(np.array(table.column("cpu_s").to_pylist(), dtype=float)))
         runs.append(dict(workers=w, n=s.n_run, setup=s.setup_s, seconds=s.seconds, wall=wall,
                          rate=s.rate_per_min, busy=busy, cpu=cpu, load_start=load_start,
-                         load_end=load(), errors=s.n_errors, collisions=s.n_collisions))
+                         load_end=load_average(), errors=s.n_errors, collisions=s.n_collisions))
         print(f"workers {w}: {s.n_run} trials in {s.seconds:.1f} s (+ {s.setup_s:.1f} s start-up)"
               f" = {s.rate_per_min:.1f} trials/min; worker busy {busy:.0f} s "
               f"({busy / max(s.seconds, 1e-9) / w:.0%} of {w} worker(s)); CPU in trials {cpu:.0f} s"
-              f" = {cpu / max(s.seconds, 1e-9):.2f} cores obtained; load {load()}")
+              f" = {cpu / max(s.seconds, 1e-9):.2f} cores obtained; load {load_average()}")
 
     # the same trials whatever the worker count
     same = "n/a (one run)"
@@ -119,9 +91,7 @@ def main(argv=None) -> int:
     base = runs[0]["rate"] if runs else 0.0
 
     md = [f"Command: `{command_line()}`", "",
-          f"Machine: nproc {info['nproc']}, {info['cpu']}; Python {info['python']}, numpy "
-          f"{info['numpy']}, numba {info['numba']}, dask/distributed {info['dask']}, pyarrow "
-          f"{info['pyarrow']}; {info['date']}.", "",
+          f"Machine (at start): {info}.", "",
           f"Study `{study.name}`: {len(study.points)} grid points x {args.trials or study.trials} "
           f"trials = {n_total} trials (547 robots, 2D check {'on' if study.check else 'off'}); "
           "LocalCluster of N single-threaded worker processes, fresh folder per run.", "",

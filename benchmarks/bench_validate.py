@@ -7,14 +7,15 @@ Run from the repository root::
                                                   [--layout sdss-v-547|sdss-v-fps]
                                                   [--only validate|calibrate|all]
                                                   [--calib-out DIR]
-                                                  [--append-results benchmarks/RESULTS.md]
+                                                  [--append-results FILE]
 
 Sections
 --------
-1. ``validate``: a full fold, made as ``rfp-twin plan --layout sdss-v-547 --seed S``
-   makes it (preset ``sdss-v``, the paper's 547-robot grid, buffer 2.5 mm, greedy
-   reverse plan at 0.1 deg with deadlock resolution, then firmware-ready trajectories by
-   :func:`planners.postprocess.postprocess`), played targets -> fold. Each fold is
+1. ``validate``: a full fold, made by the pipeline as ``rfp-twin plan --layout
+   sdss-v-547 --resolve replace --seed S`` makes it (:meth:`twin.pipeline.Reconfiguration.run`:
+   preset ``sdss-v``, the paper's 547-robot grid, buffer 2.5 mm, greedy reverse plan at
+   0.1 deg with target replacement, then firmware-ready trajectories, checked in 2D),
+   played targets -> fold. Each fold is
    checked with :func:`validation.mesh3d.validate_trajectory` against the preset's
    collision meshes: the first call of the process is printed as *cold* (numba cache
    load, or compilation after a source change), then ``--repeat`` warm calls, of which
@@ -25,14 +26,13 @@ Sections
    ``sdss-v`` preset (the command ``rfp-twin calibrate-buffer --preset sdss-v``): run
    time per stage, sample counts, and the results. Target: < 5 minutes.
 
-Prints progress, then a markdown block; ``--append-results FILE`` appends that block
-to FILE in one write (re-reading it first).
+Prints progress, then a markdown block to paste into benchmarks/RESULTS.md (a table of
+current figures kept by hand); ``--append-results FILE`` only adds a line saying to paste
+it into FILE: nothing is written.
 """
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import sys
 import tempfile
 import time
@@ -40,58 +40,28 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
-
-from models.array import ArrayGeometry  # noqa: E402
-from models.errors import PlanningError  # noqa: E402
-from models.geometry import geometry_for_spec  # noqa: E402
-from models.layout import Layout  # noqa: E402
-from models.robot import load_spec  # noqa: E402
-from planners.postprocess import postprocess  # noqa: E402
-from validation.checker2d import check_trajectory  # noqa: E402
-from planners.solver import PlannerSettings, plan_reconfiguration  # noqa: E402
-from planners.stepwise import max_displacement  # noqa: E402
-from planners.targets import random_targets  # noqa: E402
-from validation.buffer import calibrate_buffer, write_report  # noqa: E402
-from validation.mesh3d import LinkModels, validate_trajectory  # noqa: E402
-from bench_common import command_line, cpu_model, load_average  # noqa: E402
+from bench_common import command_line, load_average, machine_info, paste_note
+from models.errors import LayoutError, PlanningError
+from models.geometry import geometry_for_spec
+from models.robot import load_spec
+from twin.pipeline import PlanOptions, Reconfiguration
+from validation.buffer import calibrate_buffer, write_report
+from validation.mesh3d import LinkModels, validate_trajectory
 
 TARGET_VALIDATE_S = 10.0
 TARGET_CALIBRATE_S = 300.0
 
 
-def machine_info() -> str:
-    import fcl
-    import numba
-
-    return (f"{os.cpu_count()} cores, {cpu_model()}; Python {platform.python_version()}, numpy "
-            f"{np.__version__}, numba {numba.__version__}, python-fcl "
-            f"{getattr(fcl, '__version__', '?')}; load {load_average()}; "
-            f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}")
-
-
 def make_fold(layout_name: str, seed: int, step_deg: float = 0.1):
-    """The fold (targets -> folded) as `rfp-twin plan` writes it: (spec, layout, traj, s)."""
-    if layout_name == "sdss-v-547":
-        spec = load_spec("sdss-v")
-        lay = Layout.sdss_v_grid(spec.pitch_mm)
-    elif layout_name == "sdss-v-fps":
-        spec = load_spec("sdss-v")
-        lay = Layout.sdss_v_fps()
-    else:
-        raise SystemExit(f"--layout {layout_name!r}; allowed: sdss-v-547, sdss-v-fps")
-    geom = ArrayGeometry(spec, lay, spec.buffer_mm)
-    rng = np.random.default_rng(seed)
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
-                          step_deg)
-    targets = random_targets(geom, rng, margin_mm=md)
-    t0 = time.perf_counter()
-    plan = plan_reconfiguration(geom, targets, PlannerSettings(step_deg=step_deg, resolve="replace"), rng,
-                                resolve=True)
-    traj, post = postprocess(plan, geom, verifier=check_trajectory)
-    return spec, lay, traj.reversed(), time.perf_counter() - t0
+    """The fold (targets -> folded) as `rfp-twin plan --resolve replace` writes it:
+    (spec, layout, trajectory, seconds of planning + post-processing)."""
+    try:
+        rc = Reconfiguration.from_names("sdss-v", layout_name,
+                                        options=PlanOptions(step_deg=step_deg, resolve="replace"))
+    except LayoutError as exc:
+        raise SystemExit(f"--layout: {exc}") from None
+    out = rc.run(seed=seed)
+    return rc.spec, rc.layout, out.trajectory.reversed(), out.seconds["plan"] + out.seconds["deliver"]
 
 
 def bench_validate(layout_name: str, seeds, repeat: int) -> list[str]:
@@ -133,8 +103,9 @@ def bench_validate(layout_name: str, seeds, repeat: int) -> list[str]:
               f"{rep.n_exact_evals} exact ({rep.n_fcl_calls} FCL calls); min distance "
               f"{rep.min_distance_mm:.4f} mm; {len(rep.collisions)} collisions", flush=True)
     md = [f"### 3D validation of a full fold ({layout_name}, preset sdss-v, buffer 2.5 mm)", "",
-          f"Fold as `rfp-twin plan --layout {layout_name} --seed S` writes it (greedy reverse, "
-          "0.1 deg, deadlock resolution, firmware-ready trajectories), played targets -> fold; "
+          f"Fold as `rfp-twin plan --layout {layout_name} --resolve replace --seed S` writes it "
+          "(the pipeline: greedy reverse, 0.1 deg, target replacement, firmware-ready "
+          "trajectories), played targets -> fold; "
           f"median of {repeat} warm calls of `validate_trajectory` (the process's first call, "
           "cold, is listed separately).", "",
           "| seed | robots | fold s | pairs (link pairs) | validate s | broadphase s | exact s | "
@@ -206,13 +177,14 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--layout", default="sdss-v-547")
+    ap.add_argument("--layout", default="sdss-v-547", help="sdss-v-547 | sdss-v-fps (or hex:N)")
     ap.add_argument("--only", choices=("validate", "calibrate", "all"), default="all")
     ap.add_argument("--calib-out", type=Path, default=None)
-    ap.add_argument("--append-results", type=Path, default=None)
+    ap.add_argument("--append-results", type=Path, default=None, metavar="FILE",
+                    help="say to paste the markdown block into FILE (nothing is written)")
     args = ap.parse_args()
 
-    machine = machine_info()
+    machine = machine_info("numba", "fcl")
     print(f"machine: {machine}")
     print(f"command: {command_line()}", flush=True)
     t0 = time.perf_counter()
@@ -225,11 +197,7 @@ def main() -> int:
     md += [f"Wall time {time.perf_counter() - t0:.0f} s, load {load_average()} (at end).", ""]
     text = "\n".join(md)
     print("\n" + text)
-    if args.append_results is not None:
-        old = args.append_results.read_text() if args.append_results.exists() else ""
-        sep = "" if old.endswith("\n\n") or not old else ("\n" if old.endswith("\n") else "\n\n")
-        args.append_results.write_text(old + sep + text)
-        print(f"appended to {args.append_results}")
+    paste_note(args.append_results)
     return 0
 
 
