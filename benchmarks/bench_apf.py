@@ -52,8 +52,8 @@ from bench_common import command_line, cpu_model, load_average, now, python_vers
 from models.array import ArrayGeometry
 from models.layout import Layout
 from models.robot import load_spec
-from planners.apf import ApfSettings, apf_target_margin_mm, plan_apf, random_tip_configs
-from planners.capf import CapfSettings
+from planners.apf import (ApfSettings, CapfSettings, apf_target_margin_mm, plan_apf,
+                          random_tip_configs)
 from planners.targets import random_targets
 from twin.pipeline import PlanOptions, Reconfiguration
 

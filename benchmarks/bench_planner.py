@@ -50,6 +50,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from twin.studies.paper import PAPER_TABLE3
 from bench_common import (command_line, load_average, machine_info, md_table, source_fingerprint,
                           wide_console, write_block)
 from models.layout import Layout
@@ -62,14 +63,6 @@ err = Console(stderr=True)
 # --- reference figures ------------------------------------------------------------
 #: Sayres 2021 Table 3 (547 robots, kaiju 0.5.0, one thread of a 2.9 GHz i9):
 #: (alg, sigma mm, step deg) -> (tau_pg s, tau_sr s, fold time s, efficiency)
-PAPER_TABLE3 = {
-    ("greedy", 1.5, 1.00): (1.10, 2.10, 12.32, 0.9980),
-    ("greedy", 2.5, 0.25): (4.34, 14.67, 12.55, 0.9918),
-    ("greedy", 3.5, 0.10): (11.32, 107.11, 13.17, 0.9688),
-    ("markov", 1.5, 1.00): (2.14, 2.55, 22.94, 0.9997),
-    ("markov", 2.5, 0.25): (8.74, 14.71, 24.29, 0.9987),
-    ("markov", 3.5, 0.10): (24.04, 105.82, 27.90, 0.9925),
-}
 TABLE3_ROWS = [("greedy", 1.5, 1.00), ("greedy", 2.5, 0.25), ("greedy", 3.5, 0.10),
                ("markov", 1.5, 1.00), ("markov", 2.5, 0.25), ("markov", 3.5, 0.10)]
 

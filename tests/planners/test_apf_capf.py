@@ -43,11 +43,9 @@ def test_lambda3_validated(lam3, allowed):
     assert "field 'lambda3'" in str(exc.value) and allowed in str(exc.value)
 
 
-def test_defaults_and_the_old_import_path():
+def test_defaults():
     s = CapfSettings()
     assert (s.lambda1, s.lambda2, s.lambda3) == (1.0, 0.05, 0.03)
-    from planners.capf import CapfSettings as kept     # twin/ and benchmarks/ import it there
-    assert kept is CapfSettings
 
 
 def test_capf_converges_where_apf_stalls():
