@@ -26,12 +26,12 @@ Sections
    (lambda3 0.03, and 0.04 as the paper used for its two largest cases), in the tip
    model (the paper's field: d = 2, D = 4 mm) and the segment model (buffer 2.5 mm,
    d = 2 buffer + margin; targets drawn as the pipeline draws them for ``apf``,
-   ``twin.pipeline.Reconfiguration.random_targets``). ``--mack-runs`` seeds per size
+   ``rfp_twin.twin.pipeline.Reconfiguration.random_targets``). ``--mack-runs`` seeds per size
    (paper: one run each); converged counts are means over the runs, next to the
    paper's Table 1.
 
 Both sections plan from random starts (the papers' set-up) with the field kernels
-themselves (:func:`planners.apf.plan_apf`, tip or segment model, no recording), which
+themselves (:func:`rfp_twin.planners.apf.plan_apf`, tip or segment model, no recording), which
 the pipeline's planning step (fold -> targets, segment model) does not offer; rfp-twin's
 fields on the pipeline's own scenarios are in ``bench_compare.py``.
 
@@ -49,13 +49,13 @@ import time
 import numpy as np
 
 from bench_common import command_line, cpu_model, load_average, now, python_version, write_block
-from models.array import ArrayGeometry
-from models.layout import Layout
-from models.robot import load_spec
-from planners.apf import (ApfSettings, CapfSettings, apf_target_margin_mm, plan_apf,
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.planners.apf import (ApfSettings, CapfSettings, apf_target_margin_mm, plan_apf,
                           random_tip_configs)
-from planners.targets import random_targets
-from twin.pipeline import PlanOptions, Reconfiguration
+from rfp_twin.planners.targets import random_targets
+from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 
 #: Macktoobian 2019 Table 1, test batch 1: N -> (APF converged, CAPF converged, lambda3).
 PAPER_TABLE1 = {52: (50, 52, 0.03), 106: (90, 106, 0.03), 234: (196, 234, 0.03),

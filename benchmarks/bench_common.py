@@ -4,7 +4,7 @@ their markdown output, and the one scenario two of them draw (the hex-grid fold)
 Every benchmark runs from the repository root as ``.venv/bin/python benchmarks/bench_x.py``:
 this folder is then on ``sys.path`` (for this module) and the project packages come from
 the virtual environment. Plans, post-processing and checks go through
-:mod:`twin.pipeline`, the chain ``rfp-twin plan`` runs. Units: mm, deg, s.
+:mod:`rfp_twin.twin.pipeline`, the chain ``rfp-twin plan`` runs. Units: mm, deg, s.
 """
 from __future__ import annotations
 
@@ -119,13 +119,13 @@ def paste_note(target: Path | None) -> None:
 def hex_fold(n_positions: int, buffer_mm: float, seed: int, step_deg: float = 0.1):
     """The scenario of bench_sim and bench_render: preset ``sdss-v`` on a centred hex
     grid of ``n_positions``, seeded random targets and a greedy reverse plan with target
-    replacement (:func:`twin.pipeline.plan_random`, the sequence of
+    replacement (:func:`rfp_twin.twin.pipeline.plan_random`, the sequence of
     ``rfp-twin plan --layout hex:N --resolve replace --seed S``).
 
     Returns ``(Reconfiguration, Plan fold -> targets, planning wall seconds)``;
     ``Trajectory.from_plan(plan).reversed()`` plays it targets -> fold.
     """
-    from twin.pipeline import PlanOptions, Reconfiguration, plan_random
+    from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration, plan_random
 
     rc = Reconfiguration.from_names("sdss-v", f"hex:{n_positions}", buffer_mm=buffer_mm,
                                     options=PlanOptions(step_deg=step_deg, resolve="replace"))

@@ -10,11 +10,11 @@ Planners, all from the folded state to the same targets:
 - ``greedy/search``: the same with the state-time search that keeps targets;
 - ``markov/search``: MC (greed 0.9, phobia 0.3) with the search;
 - ``roadmap/search``: Sabater 2018's prioritized state-time planner on every robot
-  (:mod:`planners.roadmap_array`), robots it leaves stuck re-planned by the group search;
+  (:mod:`rfp_twin.planners.roadmap_array`), robots it leaves stuck re-planned by the group search;
 - ``apf`` / ``capf``: Makarem 2014 / Macktoobian 2019 fields on the beta capsules
   (segment model, gain 1, lambda3 0.03), direct fold -> targets, no resolution.
 
-Everything runs through :mod:`twin.pipeline`: targets from
+Everything runs through :mod:`rfp_twin.twin.pipeline`: targets from
 ``Reconfiguration.random_targets`` of the ``apf`` options (the field's margin), each
 planner's planning step (``Reconfiguration.plan``) and the raw delivery
 (``Reconfiguration.deliver`` with ``raw``: the stepwise / field paths, no
@@ -35,9 +35,9 @@ import time
 import numpy as np
 
 from bench_common import command_line, cpu_model, load_average, now, python_version
-from models.layout import Layout
-from models.robot import load_spec
-from twin.pipeline import PlanOptions, Reconfiguration
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 
 PLANNERS = ("greedy/replace", "greedy/search", "markov/search", "roadmap/search", "apf", "capf")
 STEP_DEG = 0.1

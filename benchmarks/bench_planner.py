@@ -27,7 +27,7 @@ Sections
 3. kaiju itself, if importable, on the same targets; otherwise one line says the anchor's
    measured figures are used.
 
-Plans come from the pipeline's planning step, :meth:`twin.pipeline.Reconfiguration.plan`
+Plans come from the pipeline's planning step, :meth:`rfp_twin.twin.pipeline.Reconfiguration.plan`
 (targets drawn by ``Reconfiguration.random_targets`` with the planner's margin, the step
 rule's MD). Timings: ``tau_pg`` is the planner kernel's own time
 (Plan.metrics["tau_pg_s"]); ``call`` is the wall time of the whole planning step with
@@ -50,12 +50,12 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from twin.studies.paper import PAPER_TABLE3
+from rfp_twin.twin.studies.paper import PAPER_TABLE3
 from bench_common import (command_line, load_average, machine_info, md_table, source_fingerprint,
                           wide_console, write_block)
-from models.layout import Layout
-from models.robot import load_spec
-from twin.pipeline import PlanOptions, Reconfiguration
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 
 console = wide_console()
 err = Console(stderr=True)

@@ -16,7 +16,7 @@ Sections
 1. ``main``: the 500-robot SDSS-V layout (preset ``--preset``, default
    ``sdss-v-production``, ``Layout.sdss_v_fps()``, 60 fiducials), step 0.1 deg, buffer
    2.0 mm, reverse plans of ``--algorithm`` (default greedy) with deadlock resolution
-   (replacement), one per seed (:func:`twin.pipeline.plan_random`), post-processed by
+   (replacement), one per seed (:func:`rfp_twin.twin.pipeline.plan_random`), post-processed by
    the pipeline's delivery step (``Reconfiguration.deliver``) with the timing backend
    ``--backend`` and the pre-simplification tolerance ``--presimplify`` (defaults: the
    pipeline's). For each: per-stage seconds of the post-processing (re-verification by
@@ -33,9 +33,9 @@ Sections
 3. ``compare``: the choices, measured on the first three seeds of ``main``: smoothing
    method (running average vs spline), RDP tolerance, interaction distance, initial
    window, and the timing backend (numba kernel vs the toppra library, per group).
-   These are parameters of :func:`planners.postprocess.postprocess` that the pipeline's
+   These are parameters of :func:`rfp_twin.planners.postprocess.postprocess` that the pipeline's
    options do not carry: each variant runs it with the pipeline's other options and its
-   checker (``twin.pipeline.check_trajectory``).
+   checker (``rfp_twin.twin.pipeline.check_trajectory``).
 4. ``backends``: the whole post-processing of every seed of ``main`` with each timing
    backend (numba kernel, toppra library): groups timed by the library, fallbacks to
    the kernel, total and timing seconds, fold time, points per axis, largest measured
@@ -56,11 +56,11 @@ from pathlib import Path
 import numpy as np
 
 from bench_common import command_line, machine_info, paste_note
-from models.layout import Layout
-from planners.postprocess import DEFAULT_PRESIMPLIFY_DEG, postprocess
-from planners.smoothing import smooth_plan, window_for_limits
-from planners.timing import DEFAULT_BACKEND, interaction_groups, interaction_pairs, time_group
-from twin.pipeline import PlanOptions, Reconfiguration, check_trajectory, plan_random
+from rfp_twin.models.layout import Layout
+from rfp_twin.planners.postprocess import DEFAULT_PRESIMPLIFY_DEG, postprocess
+from rfp_twin.planners.smoothing import smooth_plan, window_for_limits
+from rfp_twin.planners.timing import DEFAULT_BACKEND, interaction_groups, interaction_pairs, time_group
+from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration, check_trajectory, plan_random
 
 TARGET_S = 3.0
 PAPER_GC_FOLD_S = 12.55          # Sayres 2021 Table 3, GC, 2.5 mm, 0.25 deg, 547 robots
@@ -72,7 +72,7 @@ def scenario(preset: str, layout: Layout, buffer_mm: float, seeds, *, step_deg: 
              algorithm: str = "greedy", backend: str = DEFAULT_BACKEND):
     """The array and one plan per seed: ``(Reconfiguration, [Plan])``. Seeded random
     targets (clear by the step rule's MD) and reverse plans with target replacement
-    (:func:`twin.pipeline.plan_random`, the sequence of ``rfp-twin plan --seed S``)."""
+    (:func:`rfp_twin.twin.pipeline.plan_random`, the sequence of ``rfp-twin plan --seed S``)."""
     rc = Reconfiguration.from_names(preset, layout, buffer_mm=buffer_mm, options=PlanOptions(
         algorithm=algorithm, step_deg=step_deg, resolve="replace", timing_backend=backend))
     return rc, [plan_random(rc.geom, s, rc.options)[1] for s in seeds]
@@ -82,7 +82,7 @@ def deliver(rc: Reconfiguration, plan, **variant):
     """Post-process ``plan``: ``(Trajectory, PostprocessReport)``.
 
     The pipeline's delivery step (``rc.deliver``) when ``variant`` is empty; otherwise
-    :func:`planners.postprocess.postprocess` with ``variant`` (parameters the pipeline's
+    :func:`rfp_twin.planners.postprocess.postprocess` with ``variant`` (parameters the pipeline's
     options do not carry), the pipeline's budget, point limit and timing backend, and its
     checker."""
     if not variant:

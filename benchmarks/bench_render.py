@@ -8,10 +8,10 @@ Run from the repository root::
         [--frames-dir benchmarks/frames] [--append FILE]
 
 The fold is made as ``benchmarks/bench_sim.py`` makes it (``bench_common.hex_fold``:
-:func:`twin.pipeline.plan_random` on a hex grid of ``--n`` positions at ``--buffer``,
-greedy reverse plan, seed 1, ``Trajectory.from_plan(plan).reversed()``: targets -> fold) and simulated once (``twin.sim.simulate``, angles every
+:func:`rfp_twin.twin.pipeline.plan_random` on a hex grid of ``--n`` positions at ``--buffer``,
+greedy reverse plan, seed 1, ``Trajectory.from_plan(plan).reversed()``: targets -> fold) and simulated once (``rfp_twin.twin.sim.simulate``, angles every
 20 ms). For each camera, ``--frames`` consecutive frames around mid-fold (30 frames/s of
-video, speed-up 1) are drawn with :class:`twin.render.FrameRenderer` and the lean
+video, speed-up 1) are drawn with :class:`rfp_twin.twin.render.FrameRenderer` and the lean
 settings; the figure is frames per wall second of drawing (scene update, GL render,
 read-back), and, because the 2 cores are shared with other jobs, also per CPU second of
 this process (all its threads: llvmpipe rasterises on worker threads). ``--no-full``
@@ -33,17 +33,17 @@ import tempfile
 import time
 from pathlib import Path
 
-import twin.render as render  # first: picks MUJOCO_GL before mujoco is imported
+import rfp_twin.twin.render as render  # first: picks MUJOCO_GL before mujoco is imported
 
 import imageio.v2 as iio2
 import numpy as np
 
 from bench_common import ROOT, command_line, hex_fold, load_average, machine_info, paste_note
-from models.mjcf import build_model
-from models.trajectory import Trajectory
-from twin.record import record_run
-from twin.render import FrameRenderer, RenderSettings, frame_timeline, render_run, save_png
-from twin.sim import SimSettings, simulate
+from rfp_twin.models.mjcf import build_model
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.record import record_run
+from rfp_twin.twin.render import FrameRenderer, RenderSettings, frame_timeline, render_run, save_png
+from rfp_twin.twin.sim import SimSettings, simulate
 
 
 def time_frames(fr: FrameRenderer, angles: np.ndarray, states: np.ndarray) -> tuple[float, float]:
@@ -155,7 +155,7 @@ def main() -> int:
              f"- command: `{command_line()}`",
              f"- OpenGL: `MUJOCO_GL={render.require_backend()}`, {render.gl_renderer_info()} "
              "(software rasteriser, no GPU)",
-             f"- scene: `twin.pipeline.plan_random` on hex:{args.n} at {args.buffer} mm, seed "
+             f"- scene: `rfp_twin.twin.pipeline.plan_random` on hex:{args.n} at {args.buffer} mm, seed "
              f"{args.seed}, fold "
              f"{traj.duration:.2f} s simulated; {len(angles)} consecutive frames around mid-fold, "
              "robots coloured by state; lean settings (no MSAA, shadows, reflections, skybox, "

@@ -9,7 +9,7 @@ Run from the repository root::
 
 On the paper's 547 all-robot grid (preset ``sdss-v``, Sayres 2021 Table 3), for each
 buffer and algorithm, N trials: seeded random targets (``Reconfiguration.random_targets``
-of :mod:`twin.pipeline`: margin = the step rule's MD, as ``rfp-twin plan`` draws them),
+of :mod:`rfp_twin.twin.pipeline`: margin = the step rule's MD, as ``rfp-twin plan`` draws them),
 then the same targets planned twice by the pipeline's planning step
 (``Reconfiguration.plan``) with the same generator seed, reverse planning:
 
@@ -60,7 +60,7 @@ def default_step(buffer_mm: float) -> float:
 def run_trial(alg: str, buffer_mm: float, step: float, trial: int, seed: int,
               greed: float, phobia: float, check: bool) -> dict:
     """Plan one set of targets with both resolvers. Returns one JSON-able row."""
-    from twin.pipeline import PlanOptions, Reconfiguration
+    from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 
     key = [seed, int(round(buffer_mm * 100)), trial]
     targets = None

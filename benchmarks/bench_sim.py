@@ -7,12 +7,12 @@ Run from the repository root::
                                              [--timestep 0.004 ...] [--direction fold|unfold]
                                              [--n 547]
 
-The plan comes from the pipeline (:func:`twin.pipeline.plan_random` through
+The plan comes from the pipeline (:func:`rfp_twin.twin.pipeline.plan_random` through
 ``bench_common.hex_fold``: preset ``sdss-v`` on a centred hex grid of ``--n`` positions at
 ``--buffer``, seeded random targets, greedy reverse planning at ``--step`` with target
 replacement), turned into a Trajectory (``Trajectory.from_plan``) and, for ``fold``,
 played backwards (targets -> folded state). The model (preset ``sdss-v``, its ``[geometry]``
-table) is built with ``models.mjcf.build_model`` and simulated with ``twin.sim.simulate``
+table) is built with ``rfp_twin.models.mjcf.build_model`` and simulated with ``rfp_twin.twin.sim.simulate``
 (contacts recorded every step, angles every 20 ms).
 
 Prints: machine and command, plan time, model build time (MjSpec + compile), model
@@ -29,9 +29,9 @@ import time
 import numpy as np
 
 from bench_common import command_line, hex_fold, machine_info
-from models.mjcf import ModelOptions, build_model
-from models.trajectory import Trajectory
-from twin.sim import SimSettings, simulate
+from rfp_twin.models.mjcf import ModelOptions, build_model
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.sim import SimSettings, simulate
 
 
 def main() -> int:
@@ -79,7 +79,7 @@ def main() -> int:
     print(f"- machine: {machine_info('mujoco')}")
     print(f"- command: `{command_line()}`")
     print(f"- plan: {plan.n_robots} robots, hex:{args.n} at {args.buffer} mm, "
-          f"twin.pipeline.plan_random seed {args.seed}, step {args.step} deg, complete={plan.complete}; {args.direction} "
+          f"rfp_twin.twin.pipeline.plan_random seed {args.seed}, step {args.step} deg, complete={plan.complete}; {args.direction} "
           f"trajectory {traj.duration:.2f} s")
     print()
     print("| timestep ms | build s | simulated s | wall s | steps/s | real-time x | "

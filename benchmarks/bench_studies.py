@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from bench_common import command_line, load_average, machine_info
-from twin.studies import load_study, read_results, run_study
-from twin.studies.report import write_report
+from rfp_twin.twin.studies import load_study, read_results, run_study
+from rfp_twin.twin.studies.report import write_report
 
 DETERMINISTIC = ("status", "efficiency", "convergence", "fold_time_s", "n_replaced",
                  "n_deadlocked", "rounds", "n_steps", "collisions")

@@ -12,17 +12,17 @@ Run from the repository root::
 Sections
 --------
 1. ``validate``: a full fold, made by the pipeline as ``rfp-twin plan --layout
-   sdss-v-547 --resolve replace --seed S`` makes it (:meth:`twin.pipeline.Reconfiguration.run`:
+   sdss-v-547 --resolve replace --seed S`` makes it (:meth:`rfp_twin.twin.pipeline.Reconfiguration.run`:
    preset ``sdss-v``, the paper's 547-robot grid, buffer 2.5 mm, greedy reverse plan at
    0.1 deg with target replacement, then firmware-ready trajectories, checked in 2D),
    played targets -> fold. Each fold is
-   checked with :func:`validation.mesh3d.validate_trajectory` against the preset's
+   checked with :func:`rfp_twin.validation.mesh3d.validate_trajectory` against the preset's
    collision meshes: the first call of the process is printed as *cold* (numba cache
    load, or compilation after a source change), then ``--repeat`` warm calls, of which
    the median is reported, split into *broadphase* (candidate pairs + lower bounds in
    numba) and *exact* (FCL distances and their bookkeeping), with the number of lower
    bounds, exact link distances and FCL calls. Target: <= 10 s.
-2. ``calibrate``: :func:`validation.buffer.calibrate_buffer` with its defaults for the
+2. ``calibrate``: :func:`rfp_twin.validation.buffer.calibrate_buffer` with its defaults for the
    ``sdss-v`` preset (the command ``rfp-twin calibrate-buffer --preset sdss-v``): run
    time per stage, sample counts, and the results. Target: < 5 minutes.
 
@@ -41,12 +41,12 @@ from pathlib import Path
 import numpy as np
 
 from bench_common import command_line, load_average, machine_info, paste_note
-from models.errors import LayoutError, PlanningError
-from models.geometry import geometry_for_spec
-from models.robot import load_spec
-from twin.pipeline import PlanOptions, Reconfiguration
-from validation.buffer import calibrate_buffer, write_report
-from validation.mesh3d import LinkModels, validate_trajectory
+from rfp_twin.models.errors import LayoutError, PlanningError
+from rfp_twin.models.geometry import geometry_for_spec
+from rfp_twin.models.robot import load_spec
+from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
+from rfp_twin.validation.buffer import calibrate_buffer, write_report
+from rfp_twin.validation.mesh3d import LinkModels, validate_trajectory
 
 TARGET_VALIDATE_S = 10.0
 TARGET_CALIBRATE_S = 300.0

@@ -16,31 +16,31 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from models.errors import (LayoutError, PlanningError, RfpError, SpecError, TargetError,
+from rfp_twin.models.errors import (LayoutError, PlanningError, RfpError, SpecError, TargetError,
                            TrajectoryError, UnknownRobotError)
-from models.lazy import lazy_exports
-from models.robot import RobotSpec, list_presets, load_spec
+from rfp_twin.models.lazy import lazy_exports
+from rfp_twin.models.robot import RobotSpec, list_presets, load_spec
 
 #: Public name -> module that defines it, imported on first access.
 _LAZY = {
-    "Layout": "models.layout", "layout_by_name": "models.layout",
-    "ArrayGeometry": "models.array",
-    "forward": "models.kinematics", "inverse": "models.kinematics",
-    "sample_patrol_zone": "models.kinematics",
-    "Trajectory": "models.trajectory",
-    "RobotGeometry": "models.geometry", "geometry_for_spec": "models.geometry",
-    "load_geometry": "models.geometry",
-    "ModelOptions": "models.mjcf", "TwinModel": "models.mjcf", "build_model": "models.mjcf",
-    "export_model": "models.mjcf",
+    "Layout": "rfp_twin.models.layout", "layout_by_name": "rfp_twin.models.layout",
+    "ArrayGeometry": "rfp_twin.models.array",
+    "forward": "rfp_twin.models.kinematics", "inverse": "rfp_twin.models.kinematics",
+    "sample_patrol_zone": "rfp_twin.models.kinematics",
+    "Trajectory": "rfp_twin.models.trajectory",
+    "RobotGeometry": "rfp_twin.models.geometry", "geometry_for_spec": "rfp_twin.models.geometry",
+    "load_geometry": "rfp_twin.models.geometry",
+    "ModelOptions": "rfp_twin.models.mjcf", "TwinModel": "rfp_twin.models.mjcf", "build_model": "rfp_twin.models.mjcf",
+    "export_model": "rfp_twin.models.mjcf",
 }
 
 if TYPE_CHECKING:
-    from models.array import ArrayGeometry
-    from models.geometry import RobotGeometry, geometry_for_spec, load_geometry
-    from models.kinematics import forward, inverse, sample_patrol_zone
-    from models.layout import Layout, layout_by_name
-    from models.mjcf import ModelOptions, TwinModel, build_model, export_model
-    from models.trajectory import Trajectory
+    from rfp_twin.models.array import ArrayGeometry
+    from rfp_twin.models.geometry import RobotGeometry, geometry_for_spec, load_geometry
+    from rfp_twin.models.kinematics import forward, inverse, sample_patrol_zone
+    from rfp_twin.models.layout import Layout, layout_by_name
+    from rfp_twin.models.mjcf import ModelOptions, TwinModel, build_model, export_model
+    from rfp_twin.models.trajectory import Trajectory
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY)

@@ -11,10 +11,10 @@ from functools import cached_property
 
 import numpy as np
 
-from models.errors import SpecError
-from models.geometry2d import fiducial_distances, pair_distances
-from models.layout import Layout
-from models.robot import RobotSpec
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.geometry2d import fiducial_distances, pair_distances
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import RobotSpec
 
 #: Sayres 2021 Sect. 4.1 studies buffers 1.5-3.5 mm; anything in (0, pitch/2) is allowed.
 MIN_BUFFER_MM = 0.0

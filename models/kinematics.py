@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-from models.errors import TargetError
+from rfp_twin.models.errors import TargetError
 
 DEG = math.pi / 180.0
 

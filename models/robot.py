@@ -7,7 +7,7 @@ may say ``extends = "other-preset"`` to start from another preset and override a
 fields. Built-in presets live in ``models/presets/``; any path to a ``.toml`` file works
 too.
 
-Every field is checked; a bad value raises :class:`models.errors.SpecError` naming the
+Every field is checked; a bad value raises :class:`rfp_twin.models.errors.SpecError` naming the
 file, the field and the allowed range.
 """
 from __future__ import annotations
@@ -19,7 +19,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from models.errors import SpecError
+from rfp_twin.models.errors import SpecError
 
 # The SDSS-V production numbers below are those of SDSS-V's own software: the coordinate
 # package coordio (defaults) and the production planner kaiju 1.4.1.
@@ -205,7 +205,7 @@ _OTHER_TABLES = {"geometry", "actuators", "extends"}
 
 def list_presets() -> list[str]:
     """Names of the built-in presets."""
-    root = resources.files("models") / "presets"
+    root = resources.files("rfp_twin.models") / "presets"
     return sorted(p.name[:-5] for p in root.iterdir() if p.name.endswith(".toml"))
 
 
@@ -244,7 +244,7 @@ def _toml_text(name_or_path: str | Path) -> tuple[str, str]:
             raise SpecError(f"{path}: robot spec file not found; allowed: an existing .toml file "
                             f"or a preset ({', '.join(list_presets())})")
         return path.read_text(encoding="utf-8"), str(path)
-    preset = resources.files("models") / "presets" / f"{name_or_path}.toml"
+    preset = resources.files("rfp_twin.models") / "presets" / f"{name_or_path}.toml"
     if not preset.is_file():
         raise SpecError(f"unknown preset {str(name_or_path)!r}; allowed: {', '.join(list_presets())} "
                         "or a path to a .toml file")

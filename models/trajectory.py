@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from models.errors import TrajectoryError
-from models.files import atomic_write_text
+from rfp_twin.models.errors import TrajectoryError
+from rfp_twin.models.files import atomic_write_text
 
 AXES = ("alpha", "beta")
 
@@ -71,7 +71,7 @@ class Trajectory:
 
     @classmethod
     def from_plan(cls, plan) -> Trajectory:
-        """Times = step index x step duration of a :class:`planners.plan.Plan`."""
+        """Times = step index x step duration of a :class:`rfp_twin.planners.plan.Plan`."""
         ta, aa, tb, ab = [], [], [], []
         for i in range(plan.n_robots):
             steps, ang = plan.path(i)

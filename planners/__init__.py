@@ -18,22 +18,22 @@ it is handed), :class:`PostprocessReport`, :data:`BACKENDS`, :data:`DEFAULT_BACK
 """
 from __future__ import annotations
 
-from models.lazy import lazy_exports
+from rfp_twin.models.lazy import lazy_exports
 
 _LAZY = {
     **dict.fromkeys(("PlannerSettings", "plan_reconfiguration", "ALGORITHMS", "DIRECTIONS",
-                     "RESOLVERS"), "planners.solver"),
+                     "RESOLVERS"), "rfp_twin.planners.solver"),
     **dict.fromkeys(("Plan", "REACHED", "REPLACED", "DEADLOCKED", "OFFLINE", "STATUSES"),
-                    "planners.plan"),
-    **dict.fromkeys(("random_targets", "check_targets", "check_angles"), "planners.targets"),
-    "apply_offline": "planners.offline",
-    "max_displacement": "planners.stepwise",
-    "SearchResolveSettings": "planners.resolve_search",
-    "RoadmapSettings": "planners.roadmap",
+                    "rfp_twin.planners.plan"),
+    **dict.fromkeys(("random_targets", "check_targets", "check_angles"), "rfp_twin.planners.targets"),
+    "apply_offline": "rfp_twin.planners.offline",
+    "max_displacement": "rfp_twin.planners.stepwise",
+    "SearchResolveSettings": "rfp_twin.planners.resolve_search",
+    "RoadmapSettings": "rfp_twin.planners.roadmap",
     **dict.fromkeys(("ApfSettings", "CapfSettings", "plan_apf", "plan_apf_reconfiguration",
-                     "apf_target_margin_mm"), "planners.apf"),
-    **dict.fromkeys(("postprocess", "PostprocessReport", "Verifier"), "planners.postprocess"),
-    **dict.fromkeys(("BACKENDS", "DEFAULT_BACKEND"), "planners.timing"),
+                     "apf_target_margin_mm"), "rfp_twin.planners.apf"),
+    **dict.fromkeys(("postprocess", "PostprocessReport", "Verifier"), "rfp_twin.planners.postprocess"),
+    **dict.fromkeys(("BACKENDS", "DEFAULT_BACKEND"), "rfp_twin.planners.timing"),
 }
 
 __all__ = sorted(_LAZY)

@@ -27,8 +27,8 @@ from typing import Callable
 
 import numpy as np
 
-from planners.plan import build_paths
-from planners.stepwise import ANGLE_EPS
+from rfp_twin.planners.plan import build_paths
+from rfp_twin.planners.stepwise import ANGLE_EPS
 
 #: (greed, phobia) of the successive attempts: greedy first, then more and more random.
 ATTEMPTS = ((0.9, 0.3), (0.8, 0.3), (0.7, 0.4), (0.6, 0.5), (0.9, 0.3), (0.7, 0.4),
@@ -69,7 +69,7 @@ def continue_groups(n: int, final: np.ndarray, dest: np.ndarray, groups: list[np
         each other
     run : callable ``(start (n, 2), dest (n, 2), movable (n,) bool, greed, phobia, seed)``
         -> an object with ``final``, ``n_steps``, ``ev_robot``, ``ev_step``, ``ev_angles``
-        (one stepwise kernel run, :func:`planners.solver.run_once`)
+        (one stepwise kernel run, :func:`rfp_twin.planners.solver.run_once`)
     seed : int, seed of the first attempt (attempt a uses ``seed + a``)
     attempts : kernel runs at most (greed / phobia from :data:`ATTEMPTS`, cycled)
 

@@ -13,9 +13,9 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from models.errors import TargetError, UnknownRobotError
-from planners.targets import check_limits
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import TargetError, UnknownRobotError
+from rfp_twin.planners.targets import check_limits
 
 
 

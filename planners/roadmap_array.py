@@ -1,7 +1,7 @@
 """Sabater's prioritized roadmap planner over a whole alpha/beta array.
 
-:mod:`planners.roadmap` plans arms one at a time in a priority order (Sabater 2018
-Algorithm 1); :class:`planners.resolve_search.AlphaBetaWorld` gives it the black boxes
+:mod:`rfp_twin.planners.roadmap` plans arms one at a time in a priority order (Sabater 2018
+Algorithm 1); :class:`rfp_twin.planners.resolve_search.AlphaBetaWorld` gives it the black boxes
 of an alpha/beta robot in an array. This module runs that planner on *every* robot, in
 the planner's frame (reverse: each robot goes from its target at step 0 to the folded
 state), as a first planner run in place of the stepwise GC/MC kernel
@@ -21,12 +21,12 @@ state), as a first planner run in place of the stepwise GC/MC kernel
   tried again after a full pass, when more of its neighbours have left their starts;
   passes repeat while some robot gets planned. A robot still without a trajectory stays
   at its start and is reported stuck: the caller resolves it like a deadlock of the
-  stepwise planner (search, then replacement; :mod:`planners.solver`).
+  stepwise planner (search, then replacement; :mod:`rfp_twin.planners.solver`).
 
 Collisions are checked at every planner step with the stepwise planner's step rule
 (buffer_i + buffer_j + MD), and a robot moves at most ``step_deg`` per axis per step, so
-the result passes :func:`validation.checker2d.check_trajectory` at the planning buffer
-exactly like the stepwise plans do (see :mod:`planners.resolve_search`).
+the result passes :func:`rfp_twin.validation.checker2d.check_trajectory` at the planning buffer
+exactly like the stepwise plans do (see :mod:`rfp_twin.planners.resolve_search`).
 
 Units: mm and degrees; times on the planner's step clock (one unit = one step).
 """
@@ -37,10 +37,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from models.errors import SpecError, field_error
-from planners.resolve_search import AlphaBetaWorld, PathSet, SearchResolveSettings
-from planners.roadmap import edge_time, plan_arm
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.planners.resolve_search import AlphaBetaWorld, PathSet, SearchResolveSettings
+from rfp_twin.planners.roadmap import edge_time, plan_arm
 
 
 @dataclass
@@ -70,7 +70,7 @@ class RoadmapPass:
     def events(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Breakpoints as (robot (m,) int64, step (m,) int64, angles (m, 2) deg), in step
         order per robot: the form of the stepwise kernel's events
-        (:func:`planners.plan.build_paths`)."""
+        (:func:`rfp_twin.planners.plan.build_paths`)."""
         rob, stp, ang = [], [], []
         for i, (s, a) in enumerate(zip(self.paths.steps, self.paths.angles)):
             k = np.rint(s).astype(np.int64)
@@ -88,7 +88,7 @@ class RoadmapPass:
 def travel_priority(start: np.ndarray, dest: np.ndarray, robots: np.ndarray,
                     vmax: float) -> np.ndarray:
     """Sabater 2018 Sect. 7: robots with the longest direct travel time first (Eq. 5,
-    :func:`planners.roadmap.edge_time`).
+    :func:`rfp_twin.planners.roadmap.edge_time`).
 
     start, dest : (n, 2) deg; robots : (m,) indices to order; vmax : deg per step.
     Returns (m,) robot indices (stable: ties keep index order).
@@ -109,7 +109,7 @@ def roadmap_pass(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movab
     geom : ArrayGeometry
     start, dest : (n, 2) deg, mutually clear configurations (planner's frame)
     movable : (n,) bool, False for offline robots (static at ``start``)
-    md : float, step-rule margin MD, mm (:func:`planners.stepwise.max_displacement`)
+    md : float, step-rule margin MD, mm (:func:`rfp_twin.planners.stepwise.max_displacement`)
     step_deg : float, planner step, deg (the top speed: one step per axis per step)
     settings : SearchResolveSettings (roadmap grid, search budgets, action length)
     rng : numpy Generator (roadmap random edges, tie order)

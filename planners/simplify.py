@@ -8,7 +8,7 @@ angular tolerance of every dropped sample.
 The deviation is measured *vertically* (angle at the same time), not perpendicular to
 the chord as in the textbook RDP: what matters for collisions is where the arm is at a
 given instant. The result keeps the first and last samples, and only original samples,
-so the kinematic bounds of :func:`planners.timing.pl_kinematics` carry over from the
+so the kinematic bounds of :func:`rfp_twin.planners.timing.pl_kinematics` carry over from the
 dense trajectory to the simplified one.
 
 If the tolerance would need more than ``max_points`` points, the tolerance of that axis
@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from models.errors import SpecError, field_error
+from rfp_twin.models.errors import SpecError, field_error
 
 __all__ = ["rdp_mask", "simplify_axis", "simplify_columns", "max_deviation", "simplify_plan"]
 
@@ -194,7 +194,7 @@ def simplify_plan(plan, tol_deg):
 
     Parameters
     ----------
-    plan : planners.plan.Plan
+    plan : rfp_twin.planners.plan.Plan
     tol_deg : float or (n,) per robot, deg (>= 0; 0 keeps every breakpoint)
 
     Returns

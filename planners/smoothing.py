@@ -1,11 +1,11 @@
 """Smoothing a stepwise plan into a C1 path of the step parameter (Sayres 2021 Sect. 6).
 
-A :class:`planners.plan.Plan` moves every axis by -d, 0 or +d deg per step, so its
+A :class:`rfp_twin.planners.plan.Plan` moves every axis by -d, 0 or +d deg per step, so its
 paths are piecewise linear in the step index with a corner at every change of
 direction: infinite acceleration at any finite speed, and the "wiggles" of robots that
 meet (the paper's words). Here each robot's path becomes a smooth function
 ``q_i(s)`` of one path parameter ``s`` (plan steps), on a domain shared by all robots.
-Time does not appear: :mod:`planners.timing` chooses ``s(t)`` afterwards, jointly for
+Time does not appear: :mod:`rfp_twin.planners.timing` chooses ``s(t)`` afterwards, jointly for
 robots that interact, so their relative configuration at each ``s`` stays the smoothed
 plan's.
 
@@ -48,8 +48,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from models.errors import SpecError, field_error
-from planners.plan import Plan
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.planners.plan import Plan
 
 __all__ = ["METHODS", "DEFAULT_WINDOW_STEPS", "SmoothPath", "smooth_plan", "plan_deviation",
            "window_for_limits"]
@@ -185,7 +185,7 @@ def window_for_limits(max_speed, max_accel, step_deg: float) -> float:
     time law need not slow down there; a reversal needs twice that and still slows
     down. 200 steps (20 deg of travel) for SDSS-V (30 deg/s, 45 deg/s^2) at 0.1 deg.
     A corner moves by at most ``|slope change| * w / 8`` (2.5 deg at a stop), which is
-    why :mod:`planners.postprocess` re-verifies and narrows the window of robots that
+    why :mod:`rfp_twin.planners.postprocess` re-verifies and narrows the window of robots that
     come too close.
     """
     v = float(np.min(max_speed))

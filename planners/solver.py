@@ -8,11 +8,11 @@ When robots deadlock (groups connected through the Eq. 4 neighbour graph), two
 resolvers (``PlannerSettings.resolve``):
 
 * ``"search"`` (default): each group is re-planned by the state-time search of
-  :mod:`planners.resolve_search` (Sabater 2018), keeping every target; the other robots'
+  :mod:`rfp_twin.planners.resolve_search` (Sabater 2018), keeping every target; the other robots'
   stepwise paths are its moving obstacles and the new paths are merged into the plan
   on the same step clock. A group the search cannot resolve goes on alone with Markov
   moves after the plan's end, everyone else standing still
-  (:mod:`planners.continuation`). Only groups both fail on get a replaced target, as
+  (:mod:`rfp_twin.planners.continuation`). Only groups both fail on get a replaced target, as
   below;
 * ``"replace"``: one robot per group gets a new random target and everything is
   planned again (Sayres 2021 Sect. 5.2), until the array converges or ``max_rounds``
@@ -37,14 +37,14 @@ from dataclasses import replace as _with
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from models.errors import SpecError, TargetError
-from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
-from planners.continuation import continue_groups
-from planners.offline import apply_offline
-from planners.resolve_search import PathSet, SearchResolveSettings, resolve_groups
-from planners.stepwise import ANGLE_EPS, StepRun, max_displacement, run_array
-from planners.targets import check_targets, random_targets
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import SpecError, TargetError
+from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
+from rfp_twin.planners.continuation import continue_groups
+from rfp_twin.planners.offline import apply_offline
+from rfp_twin.planners.resolve_search import PathSet, SearchResolveSettings, resolve_groups
+from rfp_twin.planners.stepwise import ANGLE_EPS, StepRun, max_displacement, run_array
+from rfp_twin.planners.targets import check_targets, random_targets
 
 ALGORITHMS = ("greedy", "markov", "roadmap")
 DIRECTIONS = ("reverse", "forward")
@@ -56,15 +56,15 @@ class PlannerSettings:
     """Parameters of one planning job.
 
     algorithm : "greedy" | "markov" (the stepwise kernel) | "roadmap" (Sabater's
-    prioritized planner on every robot, :mod:`planners.roadmap_array`); step_deg :
+    prioritized planner on every robot, :mod:`rfp_twin.planners.roadmap_array`); step_deg :
     angular step (deg); greed, phobia : MC parameters in [0, 1]; direction : "reverse" | "forward"; max_steps : step limit
     (default 1000 deg / step, as in the paper); max_rounds : deadlock-resolution rounds.
     resolve : "search" (re-plan each deadlocked group with the state-time search of
-    :mod:`planners.resolve_search`, keeping its targets; replace a target only where the
+    :mod:`rfp_twin.planners.resolve_search`, keeping its targets; replace a target only where the
     search fails) | "replace" (replace one target per group and re-plan, Sayres 2021
     Sect. 5.2). search : options of the search (None = defaults). continuation :
     with ``resolve="search"``, Markov runs at most that let the groups the search could
-    not resolve go on alone after the plan's end (:mod:`planners.continuation`) before
+    not resolve go on alone after the plan's end (:mod:`rfp_twin.planners.continuation`) before
     a target is replaced; 0 = none.
     """
 
@@ -110,7 +110,7 @@ class PlannerSettings:
 
 def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
              settings: PlannerSettings, seed: int) -> StepRun:
-    """One planner run: the stepwise kernel (:func:`planners.stepwise.run_array`), or for
+    """One planner run: the stepwise kernel (:func:`rfp_twin.planners.stepwise.run_array`), or for
     ``algorithm="roadmap"`` one prioritized roadmap pass."""
     spec = geom.spec
     md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
@@ -125,8 +125,8 @@ def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: 
 
 def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
                  settings: PlannerSettings, md: float, seed: int) -> StepRun:
-    """A roadmap pass (:func:`planners.roadmap_array.roadmap_pass`) as a StepRun."""
-    from planners.roadmap_array import roadmap_pass
+    """A roadmap pass (:func:`rfp_twin.planners.roadmap_array.roadmap_pass`) as a StepRun."""
+    from rfp_twin.planners.roadmap_array import roadmap_pass
 
     res = roadmap_pass(geom, start, dest, movable, md, settings.step_deg,
                        settings.search or SearchResolveSettings(), np.random.default_rng(seed))
@@ -136,7 +136,7 @@ def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movab
 
 def _continue(geom: ArrayGeometry, outcome, groups: list[np.ndarray], goal: np.ndarray,
               settings: PlannerSettings, seed: int):
-    """Markov continuation of the groups the search left (:mod:`planners.continuation`),
+    """Markov continuation of the groups the search left (:mod:`rfp_twin.planners.continuation`),
     appended to ``outcome.paths`` after ``outcome.n_steps`` (both updated in place)."""
     paths = outcome.paths
     now = np.array([a[-1] for a in paths.angles])

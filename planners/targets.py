@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from models.errors import TargetError
-from models.geometry2d import beta_segment, point_segment_distance, segment_distance
-from models.kinematics import sample_patrol_zone
+from rfp_twin.models.errors import TargetError
+from rfp_twin.models.geometry2d import beta_segment, point_segment_distance, segment_distance
+from rfp_twin.models.kinematics import sample_patrol_zone
 
 #: Draws per robot before random assignment gives up.
 POOL_SIZE = 256
@@ -73,7 +73,7 @@ def random_targets(geom, rng: np.random.Generator, *, fixed: np.ndarray | None =
 
     Parameters
     ----------
-    geom : models.array.ArrayGeometry
+    geom : rfp_twin.models.array.ArrayGeometry
         Layout, spec and buffers of the array.
     rng : numpy Generator
     fixed : (n,) bool, robots that keep their row of ``initial`` (offline robots, or

@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
+#: The four folders, installed as rfp_twin.models, rfp_twin.planners, ...
 PACKAGES = ("models", "planners", "validation", "twin")
 MAX_LINES = 500
 #: Modules that hold a single numba kernel, which does not split: their size limit.
@@ -30,10 +31,11 @@ def test_contracts_cover_every_package():
     import tomllib
 
     cfg = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]
-    assert sorted(cfg["root_packages"]) == sorted(PACKAGES)
+    packages = {f"rfp_twin.{p}" for p in PACKAGES}
+    assert set(cfg["root_packages"]) == packages
     layers = next(c for c in cfg["contracts"] if c["type"] == "layers")["layers"]
     named = {p.strip() for layer in layers for p in layer.split("|")}
-    assert named == set(PACKAGES)
+    assert named == packages
 
 
 @pytest.mark.parametrize("package", PACKAGES)
@@ -62,3 +64,14 @@ def test_every_package_folder_is_installed():
     present = {p.parent.resolve() for pk in PACKAGES for p in (ROOT / pk).rglob("__init__.py")}
     assert present - listed == set(), "add these packages to [tool.setuptools] packages"
     assert all(p.is_dir() for p in listed)
+
+
+def test_code_imports_the_installed_names_only():
+    """Code imports ``rfp_twin.models`` etc., never the folders as top-level packages (a
+    checkout on sys.path would make both work, and load every module twice)."""
+    import re
+
+    bare = re.compile(r"^\s*(from|import)\s+(" + "|".join(PACKAGES) + r")(\.|\s|$)", re.M)
+    offenders = [str(p.relative_to(ROOT)) for folder in (*PACKAGES, "tests", "benchmarks")
+                 for p in (ROOT / folder).rglob("*.py") if bare.search(p.read_text(encoding="utf-8"))]
+    assert offenders == []

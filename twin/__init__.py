@@ -2,27 +2,27 @@
 
 Public API (imported on first use, so that ``rfp-twin --help`` stays fast)::
 
-    from twin import Reconfiguration, PlanOptions
+    from rfp_twin.twin import Reconfiguration, PlanOptions
     outcome = Reconfiguration.from_names("sdss-v", buffer_mm=2.0).run(seed=1)
     outcome.write("out/run1")
 
-- :class:`Reconfiguration`, :class:`PlanOptions`, :func:`plan_random` (:mod:`twin.pipeline`):
+- :class:`Reconfiguration`, :class:`PlanOptions`, :func:`plan_random` (:mod:`rfp_twin.twin.pipeline`):
   targets -> plan -> post-process -> independent 2D check; :class:`Outcome`
-  (:mod:`twin.outcome`): summary and run folder; :func:`load_run` (:mod:`twin.run_dir`).
-- The MuJoCo twin: :func:`simulate` (:mod:`twin.sim`), :func:`render_run`
-  (:mod:`twin.render`), :func:`record_run` (:mod:`twin.record`).
-- Studies: :func:`load_study`, :func:`run_study` (:mod:`twin.studies`).
+  (:mod:`rfp_twin.twin.outcome`): summary and run folder; :func:`load_run` (:mod:`rfp_twin.twin.run_dir`).
+- The MuJoCo twin: :func:`simulate` (:mod:`rfp_twin.twin.sim`), :func:`render_run`
+  (:mod:`rfp_twin.twin.render`), :func:`record_run` (:mod:`rfp_twin.twin.record`).
+- Studies: :func:`load_study`, :func:`run_study` (:mod:`rfp_twin.twin.studies`).
 """
 from __future__ import annotations
 
-from models.lazy import lazy_exports
+from rfp_twin.models.lazy import lazy_exports
 
 _EXPORTS = {
-    "Reconfiguration": "twin.pipeline", "PlanOptions": "twin.pipeline",
-    "plan_random": "twin.pipeline", "Outcome": "twin.outcome", "load_run": "twin.run_dir",
-    "write_run": "twin.run_dir", "simulate": "twin.sim",
-    "render_run": "twin.render", "record_run": "twin.record", "load_study": "twin.studies",
-    "run_study": "twin.studies",
+    "Reconfiguration": "rfp_twin.twin.pipeline", "PlanOptions": "rfp_twin.twin.pipeline",
+    "plan_random": "rfp_twin.twin.pipeline", "Outcome": "rfp_twin.twin.outcome", "load_run": "rfp_twin.twin.run_dir",
+    "write_run": "rfp_twin.twin.run_dir", "simulate": "rfp_twin.twin.sim",
+    "render_run": "rfp_twin.twin.render", "record_run": "rfp_twin.twin.record", "load_study": "rfp_twin.twin.studies",
+    "run_study": "rfp_twin.twin.studies",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -4,7 +4,7 @@
 trajectory (firmware-ready, or the raw stepwise paths), the post-processing report,
 the independent 2D check and the wall seconds of each stage. ``summary()`` is the
 ``summary.json`` of a run folder; ``write()`` writes the folder atomically
-(:func:`twin.run_dir.write_run`).
+(:func:`rfp_twin.twin.run_dir.write_run`).
 """
 from __future__ import annotations
 
@@ -16,14 +16,14 @@ from typing import Any
 
 import numpy as np
 
-from models.trajectory import Trajectory
-from planners.plan import DEADLOCKED, Plan
-from twin.run_dir import write_run
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.plan import DEADLOCKED, Plan
+from rfp_twin.twin.run_dir import write_run
 
 
 @dataclass
 class Outcome:
-    """One run of :meth:`twin.pipeline.Reconfiguration.run`.
+    """One run of :meth:`rfp_twin.twin.pipeline.Reconfiguration.run`.
 
     Attributes
     ----------
@@ -34,7 +34,7 @@ class Outcome:
     field : ApfResult of a field planner, else None
     trajectory : what is delivered (firmware-ready, or stepwise when raw)
     post : PostprocessReport, None when raw
-    check : the independent 2D check of ``trajectory`` (validation.checker2d report)
+    check : the independent 2D check of ``trajectory`` (rfp_twin.validation.checker2d report)
     seconds : wall seconds per stage: targets, plan, deliver, total
     """
 

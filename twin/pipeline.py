@@ -6,7 +6,7 @@ buffer, offline robots) and the planning options; :meth:`Reconfiguration.run` dr
 takes targets, plans (stepwise planners with deadlock resolution, or a potential
 field), post-processes into firmware-ready trajectories (smoothing, time-optimal
 timing, simplification, re-verification by the independent 2D checker that this
-module hands to the planners) and returns a :class:`~twin.outcome.Outcome` that writes
+module hands to the planners) and returns a :class:`~rfp_twin.twin.outcome.Outcome` that writes
 the run folder. The CLI's ``plan``, the studies, the tests' helpers and the benchmarks
 all call it, so the chain is written once.
 
@@ -28,20 +28,20 @@ from typing import Callable
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from models.errors import PlanningError, RfpError
-from models.layout import Layout
-from models.robot import RobotSpec, load_spec
-from models.trajectory import Trajectory
-from planners.offline import apply_offline
-from planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
-from planners.solver import ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings, plan_reconfiguration
-from planners.stepwise import max_displacement
-from planners.targets import random_targets
-from planners.timing import BACKENDS, DEFAULT_BACKEND
-from models.layout import default_layout_name, layout_by_name
-from twin.outcome import Outcome
-from validation.checker2d import check_trajectory
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import PlanningError, RfpError
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import RobotSpec, load_spec
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.offline import apply_offline
+from rfp_twin.planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
+from rfp_twin.planners.solver import ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings, plan_reconfiguration
+from rfp_twin.planners.stepwise import max_displacement
+from rfp_twin.planners.targets import random_targets
+from rfp_twin.planners.timing import BACKENDS, DEFAULT_BACKEND
+from rfp_twin.models.layout import default_layout_name, layout_by_name
+from rfp_twin.twin.outcome import Outcome
+from rfp_twin.validation.checker2d import check_trajectory
 
 #: Planners that integrate a potential field (Makarem 2014 APF, Macktoobian 2019 CAPF).
 FIELD_ALGORITHMS = ("apf", "capf")
@@ -119,7 +119,7 @@ class PlanOptions:
 
     def field_settings(self):
         """ApfSettings / CapfSettings on the beta segments (field planners only)."""
-        from planners.apf import ApfSettings, CapfSettings
+        from rfp_twin.planners.apf import ApfSettings, CapfSettings
 
         if self.algorithm == "capf":
             return CapfSettings(model="segment", gain=self.apf_gain, lambda3=self.lambda3)
@@ -149,7 +149,7 @@ class Reconfiguration:
                    options: PlanOptions | None = None,
                    offline: dict[int, tuple[float, float]] | None = None) -> "Reconfiguration":
         """From a preset name / robot TOML (or a RobotSpec) and a layout name (see
-        :func:`models.layout.layout_by_name`; default: the preset's instrument)."""
+        :func:`rfp_twin.models.layout.layout_by_name`; default: the preset's instrument)."""
         spec = preset if isinstance(preset, RobotSpec) else load_spec(preset)
         if buffer_mm is not None:
             spec = spec.with_overrides(buffer_mm=buffer_mm)
@@ -170,7 +170,7 @@ class Reconfiguration:
         """Clearance beyond Eq. 3 that random targets keep (mm): the stepwise planners'
         maximum displacement per step (Sayres 2021 step rule), or the field's barrier."""
         if self._field is not None:
-            from planners.apf import apf_target_margin_mm
+            from rfp_twin.planners.apf import apf_target_margin_mm
 
             return apf_target_margin_mm(self.geom, self._field) + FIELD_TARGET_SLACK_MM
         spec = self.spec
@@ -186,8 +186,8 @@ class Reconfiguration:
                               margin_mm=self.target_margin_mm())
 
     def read_targets(self, path: str | Path) -> np.ndarray:
-        """Targets from a CSV file (see :func:`twin.targets_csv.read_targets_csv`)."""
-        from twin.targets_csv import read_targets_csv
+        """Targets from a CSV file (see :func:`rfp_twin.twin.targets_csv.read_targets_csv`)."""
+        from rfp_twin.twin.targets_csv import read_targets_csv
 
         return read_targets_csv(path, self.geom)
 
@@ -198,7 +198,7 @@ class Reconfiguration:
 
         ``on_round(round, n_stuck)`` is called after each stepwise planner run."""
         if self._field is not None:
-            from planners.apf import plan_apf_reconfiguration
+            from rfp_twin.planners.apf import plan_apf_reconfiguration
 
             return plan_apf_reconfiguration(self.geom, targets, self._field, offline=self.offline,
                                             algorithm=self.options.algorithm)

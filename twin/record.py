@@ -6,7 +6,7 @@ duration in seconds of simulated time):
 ``robots/<id>``
     the robot frame (static ``Transform3D``: the pose of the robot's base body).
 ``robots/<id>/body``, ``robots/<id>/alpha``, ``robots/<id>/alpha/beta``
-    each link's visual mesh (:meth:`models.geometry.RobotGeometry.link_meshes`, in its
+    each link's visual mesh (:meth:`rfp_twin.models.geometry.RobotGeometry.link_meshes`, in its
     link frame, static) and, for alpha and beta, its pose relative to the parent link
     over time (``Transform3D``: the MuJoCo body poses ``xpos``/``xquat`` made relative;
     a body frame is its link frame). A pose is logged only when the robot moved since
@@ -19,7 +19,7 @@ duration in seconds of simulated time):
     the path of that fiber of every robot over the whole run, one line strip per robot
     (world frame, static; about one point per :data:`TRACE_SPACING_MM` of path).
 ``contacts``
-    the simulation's contacts (:class:`twin.sim.ContactLog`) as red points at the
+    the simulation's contacts (:class:`rfp_twin.twin.sim.ContactLog`) as red points at the
     contact positions, labelled with the pair and depth, on the record time grid; an
     empty set after each contact so that markers vanish when the contact ends.
 ``summary``
@@ -40,10 +40,10 @@ import mujoco
 import numpy as np
 import rerun as rr
 
-from models.errors import RfpError
-from models.mjcf import RGBA, TwinModel
-from models.trajectory import Trajectory
-from twin.sim import SimReport, SimSettings, simulate
+from rfp_twin.models.errors import RfpError
+from rfp_twin.models.mjcf import RGBA, TwinModel
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.sim import SimReport, SimSettings, simulate
 
 #: Name of the time line.
 TIMELINE = "sim_time"
@@ -171,7 +171,7 @@ def record_run(twin: TwinModel, trajectory: Trajectory | None, out_rrd: str | Pa
     trajectory : what to simulate (ignored when ``sim_report`` is given)
     out_rrd : path of the recording (written atomically)
     sim_report : a finished simulation with its record; default: simulate ``trajectory``
-        with ``faults`` and ``sim_settings`` (:func:`twin.sim.simulate`)
+        with ``faults`` and ``sim_settings`` (:func:`rfp_twin.twin.sim.simulate`)
     settings : RecordSettings
 
     Returns

@@ -24,12 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
-from models.errors import RfpError, TrajectoryError
-from models.kinematics import forward
-from models.layout import Layout
-from models.robot import RobotSpec
-from planners.plan import Plan
-from models.trajectory import AXES, Trajectory
+from rfp_twin.models.errors import RfpError, TrajectoryError
+from rfp_twin.models.kinematics import forward
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import RobotSpec
+from rfp_twin.planners.plan import Plan
+from rfp_twin.models.trajectory import AXES, Trajectory
 
 TRAJECTORIES = "trajectories.json"
 TRAJECTORIES_TO_FOLD = "trajectories_to_fold.json"
@@ -117,7 +117,7 @@ def load_run(run: str | Path, to_fold: bool = False) -> tuple[RobotSpec, Layout,
     The trajectory is the unfold (``trajectories.json``) or, with ``to_fold``, the fold
     (``trajectories_to_fold.json``).
     """
-    from models.robot import load_spec
+    from rfp_twin.models.robot import load_spec
 
     run = Path(run)
     if not run.is_dir():

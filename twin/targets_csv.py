@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from models.errors import TargetError
-from models.kinematics import inverse
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import TargetError
+from rfp_twin.models.kinematics import inverse
 
 ANGLE_COLUMNS = ("alpha_deg", "beta_deg")
 XY_COLUMNS = ("x_mm", "y_mm")

@@ -1,17 +1,17 @@
 """Is a plan safe against the geometry? Independent of ``planners/`` algorithms.
 
-:mod:`validation.checker2d` checks a trajectory densely against the 2D capsule model,
-:mod:`validation.mesh3d` against the 3D collision meshes (FCL), and
-:mod:`validation.buffer` calibrates the 2D buffer against the meshes;
-:mod:`validation.numerics` holds what they share. The public names below are loaded
-on first use, so ``import validation.checker2d`` does not pull in FCL or trimesh.
+:mod:`rfp_twin.validation.checker2d` checks a trajectory densely against the 2D capsule model,
+:mod:`rfp_twin.validation.mesh3d` against the 3D collision meshes (FCL), and
+:mod:`rfp_twin.validation.buffer` calibrates the 2D buffer against the meshes;
+:mod:`rfp_twin.validation.numerics` holds what they share. The public names below are loaded
+on first use, so ``import rfp_twin.validation.checker2d`` does not pull in FCL or trimesh.
 
 Modules here may import ``models`` (the instrument and the trajectory data type,
-:mod:`models.trajectory`), never ``planners`` nor the planner's distance code
-(:mod:`models.geometry2d`): a checker that shares code with what it checks proves
+:mod:`rfp_twin.models.trajectory`), never ``planners`` nor the planner's distance code
+(:mod:`rfp_twin.models.geometry2d`): a checker that shares code with what it checks proves
 nothing.
 """
-from models.lazy import lazy_exports
+from rfp_twin.models.lazy import lazy_exports
 
 _EXPORTS = {
     "check_trajectory": "checker2d", "CheckReport": "checker2d", "Collision": "checker2d",

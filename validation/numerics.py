@@ -1,7 +1,7 @@
 """Numerics shared by the 2D checker and the 3D validation (and nothing else).
 
-One definition each of what :mod:`validation.checker2d`, :mod:`validation.mesh3d` and
-:mod:`validation.buffer` all need: the segment distance, the trajectory as per-axis CSR
+One definition each of what :mod:`rfp_twin.validation.checker2d`, :mod:`rfp_twin.validation.mesh3d` and
+:mod:`rfp_twin.validation.buffer` all need: the segment distance, the trajectory as per-axis CSR
 arrays and its interpolation, the largest breakpoint slope on a time window, the
 bisection stack, candidate pairs within a reach, and input checks. Units: mm, s;
 angles in radians inside the kernels, degrees at the public boundary.
@@ -14,7 +14,7 @@ formulation of Ericson, *Real-Time Collision Detection*, 2005, Sect. 5.1.9). In 
 ``|u|^2 |v|^2 - (u . v)^2 = (u x v)^2`` and the unclamped line parameter of ``P`` is
 ``(v x w) / (u x v)``; computing it with the cross products keeps nearly parallel
 segments exact. This code is the validation side's own: the planner's distance code
-(:mod:`models.geometry2d`) tests for a proper crossing and then takes the smallest of
+(:mod:`rfp_twin.models.geometry2d`) tests for a proper crossing and then takes the smallest of
 four endpoint-to-segment distances; the two share no code.
 
 Trajectory arrays
@@ -38,9 +38,9 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
-from models.errors import SpecError, TrajectoryError, field_error
-from models.layout import Layout
-from models.trajectory import AXES, Trajectory
+from rfp_twin.models.errors import SpecError, TrajectoryError, field_error
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.trajectory import AXES, Trajectory
 
 #: Squared length (mm^2) below which a segment is treated as a point.
 POINT_EPS2 = 1e-24
@@ -170,7 +170,7 @@ def segment_distance_np(p0, p1, q0, q1) -> np.ndarray:
 def axis_csr(traj: Trajectory, ax: int):
     """(ptr (n+1,), times (K,), angles rad (K,), |slope| rad/s per breakpoint (K,)).
 
-    Raises :class:`models.errors.TrajectoryError` on a jump (two breakpoints at one
+    Raises :class:`rfp_twin.models.errors.TrajectoryError` on a jump (two breakpoints at one
     time with different angles): it has no finite speed bound.
     """
     n = traj.n_robots
@@ -281,8 +281,8 @@ def pairs_within(xy: np.ndarray, reach: float) -> np.ndarray:
 def robot_bases(traj: Trajectory, layout: Layout) -> tuple[np.ndarray, np.ndarray]:
     """Robot ids (n,) int64 of the trajectory and their bases (n, 2) mm in the layout.
 
-    Raises :class:`models.errors.TrajectoryError` on a repeated id and
-    :class:`models.errors.UnknownRobotError` on an id the layout does not have.
+    Raises :class:`rfp_twin.models.errors.TrajectoryError` on a repeated id and
+    :class:`rfp_twin.models.errors.UnknownRobotError` on an id the layout does not have.
     """
     ids = np.asarray(traj.robot_ids, dtype=np.int64)
     uniq, counts = np.unique(ids, return_counts=True)
@@ -296,7 +296,7 @@ def robot_bases(traj: Trajectory, layout: Layout) -> tuple[np.ndarray, np.ndarra
 def checked_float(value, name: str, allowed: str, where: str, minimum: float = 0.0, *,
                   strict: bool = True, allow_bool: bool = False) -> float:
     """``float(value)`` if finite and ``> minimum`` (``>=`` unless ``strict``), else a
-    :class:`models.errors.SpecError` naming the field (``allowed`` says what is)."""
+    :class:`rfp_twin.models.errors.SpecError` naming the field (``allowed`` says what is)."""
     try:
         x = float(value)
     except (TypeError, ValueError):

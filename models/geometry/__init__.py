@@ -2,21 +2,21 @@
 
 Lengths in mm, angles in degrees, z up. Geometry comes from the ``[geometry]`` table of
 a preset (see ``models/presets``); :func:`geometry_for_spec` gives the 3D robot of any
-:class:`models.robot.RobotSpec`. Modules:
+:class:`rfp_twin.models.robot.RobotSpec`. Modules:
 
-- :mod:`models.geometry.dimensions`: link frames, SDSS-V defaults, :class:`GeometryParams`
-- :mod:`models.geometry.params`: the ``[geometry]`` TOML table, parsed and checked
-- :mod:`models.geometry.shapes`: procedural outlines and meshes (prism, cylinder, union)
-- :mod:`models.geometry.cad`: user STL/OBJ meshes and their convex pieces
-- :mod:`models.geometry.robot_geometry`: :class:`RobotGeometry`, built and loaded
+- :mod:`rfp_twin.models.geometry.dimensions`: link frames, SDSS-V defaults, :class:`GeometryParams`
+- :mod:`rfp_twin.models.geometry.params`: the ``[geometry]`` TOML table, parsed and checked
+- :mod:`rfp_twin.models.geometry.shapes`: procedural outlines and meshes (prism, cylinder, union)
+- :mod:`rfp_twin.models.geometry.cad`: user STL/OBJ meshes and their convex pieces
+- :mod:`rfp_twin.models.geometry.robot_geometry`: :class:`RobotGeometry`, built and loaded
 """
-from models.geometry.cad import MESH_SUFFIXES, UNIT_RATIO_LIMIT, load_cad_mesh, slab_pieces
-from models.geometry.dimensions import (LINKS, MOVING_LINKS, SDSS_V_DEFAULTS, GeometryParams,
+from rfp_twin.models.geometry.cad import MESH_SUFFIXES, UNIT_RATIO_LIMIT, load_cad_mesh, slab_pieces
+from rfp_twin.models.geometry.dimensions import (LINKS, MOVING_LINKS, SDSS_V_DEFAULTS, GeometryParams,
                                         default_params)
-from models.geometry.params import params_from_tables, validate_params
-from models.geometry.robot_geometry import (Link, RobotGeometry, build_geometry,
+from rfp_twin.models.geometry.params import params_from_tables, validate_params
+from rfp_twin.models.geometry.robot_geometry import (Link, RobotGeometry, build_geometry,
                                             geometry_for_spec, load_geometry)
-from models.geometry.shapes import alpha_outline, beta_outline, cylinder, prism, union
+from rfp_twin.models.geometry.shapes import alpha_outline, beta_outline, cylinder, prism, union
 
 __all__ = ["LINKS", "MESH_SUFFIXES", "MOVING_LINKS", "SDSS_V_DEFAULTS", "UNIT_RATIO_LIMIT",
            "GeometryParams", "Link", "RobotGeometry", "alpha_outline", "beta_outline",

@@ -5,7 +5,7 @@ Every link has a ``visual`` mesh (one watertight trimesh) and ``collision`` piec
 concave part must be given as convex pieces). A CAD link without collision pieces is
 cut into ``collision_slabs`` slabs along x, each replaced by its convex hull. A bad
 mesh (missing, unreadable, open, wrong units, origin off the joint axis) raises
-:class:`models.errors.SpecError` naming the field, the file and what is allowed.
+:class:`rfp_twin.models.errors.SpecError` naming the field, the file and what is allowed.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import manifold3d
 import numpy as np
 import trimesh
 
-from models.errors import SpecError
+from rfp_twin.models.errors import SpecError
 
 #: Mesh file types a user may give.
 MESH_SUFFIXES = (".stl", ".obj")

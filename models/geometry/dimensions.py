@@ -29,7 +29,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from models.robot import RobotSpec
+from rfp_twin.models.robot import RobotSpec
 
 #: Link names, in tree order.
 LINKS = ("body", "alpha", "beta", "fiducial")

@@ -1,12 +1,12 @@
 """The ``[geometry]`` table of a preset, parsed and checked into :class:`GeometryParams`.
 
-Keys are flat lengths in mm (see :mod:`models.geometry.dimensions`), ``fibers = [{name,
+Keys are flat lengths in mm (see :mod:`rfp_twin.models.geometry.dimensions`), ``fibers = [{name,
 x, y}, ...]`` in the beta frame, and two optional sub-tables: ``[geometry.meshes]``
 (``body``/``alpha``/``beta``/``fiducial`` = path of an STL or OBJ file replacing that
 link's visual mesh) and ``[geometry.collision]`` (link = list of convex-piece files).
 Relative paths are relative to the TOML file. Missing keys take
-:func:`models.geometry.dimensions.default_params`. Any bad value raises
-:class:`models.errors.SpecError` naming the field and what is allowed.
+:func:`rfp_twin.models.geometry.dimensions.default_params`. Any bad value raises
+:class:`rfp_twin.models.errors.SpecError` naming the field and what is allowed.
 """
 from __future__ import annotations
 
@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from models.errors import SpecError
-from models.geometry.dimensions import LINKS, GeometryParams, default_params
-from models.geometry.shapes import beta_outline
-from models.robot import RobotSpec
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.geometry.dimensions import LINKS, GeometryParams, default_params
+from rfp_twin.models.geometry.shapes import beta_outline
+from rfp_twin.models.robot import RobotSpec
 
 _INT_KEYS = {"circle_sections", "collision_slabs"}
 _TABLE_KEYS = {"meshes", "collision"}
@@ -31,7 +31,7 @@ def params_from_tables(tables: dict, spec: RobotSpec, source: str = "<memory>",
     Parameters
     ----------
     tables : dict
-        As returned by :func:`models.robot.load_tables`.
+        As returned by :func:`rfp_twin.models.robot.load_tables`.
     spec : RobotSpec
         Supplies the defaults for missing keys (:func:`default_params`).
     base_dir : path, optional

@@ -1,8 +1,8 @@
 """The 3D robot: :class:`RobotGeometry`, one :class:`Link` per part, built from a spec.
 
-Meshes are procedural (:mod:`models.geometry.shapes`) or the user's CAD files
-(:mod:`models.geometry.cad`), in link frames (mm, z up; see
-:mod:`models.geometry.dimensions`). Angles in degrees, transforms 4x4.
+Meshes are procedural (:mod:`rfp_twin.models.geometry.shapes`) or the user's CAD files
+(:mod:`rfp_twin.models.geometry.cad`), in link frames (mm, z up; see
+:mod:`rfp_twin.models.geometry.dimensions`). Angles in degrees, transforms 4x4.
 
 The beta collision pieces stay inside the planner's 2D envelope: in the plane, every
 vertex is within ``beta_half_width_mm`` of the segment from the beta axis to the head
@@ -21,12 +21,12 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from models.errors import SpecError
-from models.geometry.cad import load_cad_mesh, slab_pieces
-from models.geometry.dimensions import LINKS, MOVING_LINKS, GeometryParams
-from models.geometry.params import params_from_tables, validate_params
-from models.geometry.shapes import procedural_pieces, union
-from models.robot import RobotSpec, load_spec, load_tables, spec_origin
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.geometry.cad import load_cad_mesh, slab_pieces
+from rfp_twin.models.geometry.dimensions import LINKS, MOVING_LINKS, GeometryParams
+from rfp_twin.models.geometry.params import params_from_tables, validate_params
+from rfp_twin.models.geometry.shapes import procedural_pieces, union
+from rfp_twin.models.robot import RobotSpec, load_spec, load_tables, spec_origin
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 Outlines are ``(k, 2)`` float64 mm, convex and counter-clockwise; meshes are watertight
 ``trimesh.Trimesh`` in the link frame (mm, z up; frames in
-:mod:`models.geometry.dimensions`). The procedural collision pieces are exact: the beta
+:mod:`rfp_twin.models.geometry.dimensions`). The procedural collision pieces are exact: the beta
 bar outline (capsule cut by the flat tip) is convex, so it is one piece; post and
 ferrule are cylinders.
 """
@@ -13,8 +13,8 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull
 
-from models.geometry.dimensions import GeometryParams
-from models.robot import RobotSpec
+from rfp_twin.models.geometry.dimensions import GeometryParams
+from rfp_twin.models.robot import RobotSpec
 
 
 def _arc(cx: float, cy: float, r: float, a0: float, a1: float, n: int) -> np.ndarray:

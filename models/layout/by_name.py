@@ -4,8 +4,8 @@ Names: ``sdss-v-fps`` (the real SDSS-V focal plane: 500 robots, 60 fiducials),
 ``sdss-v-547`` (the all-robot 13-ring grid of Sayres 2021 Sect. 3.2), ``hex:N`` (a
 centred hex grid of N positions: 7, 19, 37, 61, 91, ...) or the path of a layout CSV.
 Pitch in mm; fiducial ids turn positions of a generated grid into fiducials. A bad name
-raises :class:`models.errors.LayoutError` (an unknown fiducial id
-:class:`models.errors.UnknownRobotError`) with a one-line message.
+raises :class:`rfp_twin.models.errors.LayoutError` (an unknown fiducial id
+:class:`rfp_twin.models.errors.UnknownRobotError`) with a one-line message.
 """
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from models.errors import LayoutError
-from models.layout.core import Layout
+from rfp_twin.models.errors import LayoutError
+from rfp_twin.models.layout.core import Layout
 
 
 def default_layout_name(spec) -> str:

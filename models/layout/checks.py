@@ -1,6 +1,6 @@
 """Field checks shared by the layout modules: ids, coordinates, lengths, base overlap.
 
-Units: millimetres. Every failure raises :class:`models.errors.LayoutError` with a
+Units: millimetres. Every failure raises :class:`rfp_twin.models.errors.LayoutError` with a
 one-line message naming where (``where``: layout name or file:line), the field and the
 allowed values.
 """
@@ -11,7 +11,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
-from models.errors import LayoutError
+from rfp_twin.models.errors import LayoutError
 
 #: Allowed values of the ``kind`` column.
 KINDS = ("robot", "fiducial")

@@ -9,10 +9,10 @@ into the robot arrays and a "fiducial index" one into the fiducial arrays.
 This module holds the :class:`Layout` type: its checks, robot/fiducial views, id lookup
 and the generated grids (:meth:`Layout.hex_grid`, :meth:`Layout.hex_grid_positions`,
 :meth:`Layout.sdss_v_grid`, :meth:`Layout.sdss_v_fps`). CSV I/O comes from
-:mod:`models.layout.csv_io`, neighbour lists from :mod:`models.layout.neighbours`.
+:mod:`rfp_twin.models.layout.csv_io`, neighbour lists from :mod:`rfp_twin.models.layout.neighbours`.
 
-A malformed layout raises :class:`models.errors.LayoutError`; an id the layout does not
-contain raises :class:`models.errors.UnknownRobotError`. Messages are one line and name
+A malformed layout raises :class:`rfp_twin.models.errors.LayoutError`; an id the layout does not
+contain raises :class:`rfp_twin.models.errors.UnknownRobotError`. Messages are one line and name
 the file/line, field and the allowed values.
 """
 from __future__ import annotations
@@ -23,14 +23,14 @@ from importlib import resources
 
 import numpy as np
 
-from models.errors import LayoutError, UnknownRobotError
-from models.layout.checks import (KINDS, as_ids, as_xy, check_positive, closest_violation,
+from rfp_twin.models.errors import LayoutError, UnknownRobotError
+from rfp_twin.models.layout.checks import (KINDS, as_ids, as_xy, check_positive, closest_violation,
                                   readonly)
-from models.layout.csv_io import LayoutCsv
-from models.layout.grids import SDSS_V_RINGS, hex_axial, hex_rings, hex_xy, nearest_hex_counts
-from models.layout.neighbours import LayoutNeighbours
+from rfp_twin.models.layout.csv_io import LayoutCsv
+from rfp_twin.models.layout.grids import SDSS_V_RINGS, hex_axial, hex_rings, hex_xy, nearest_hex_counts
+from rfp_twin.models.layout.neighbours import LayoutNeighbours
 
-#: Package data file of the real SDSS-V focal plane (in ``models.data``).
+#: Package data file of the real SDSS-V focal plane (in ``rfp_twin.models.data``).
 SDSS_V_FPS_CSV = "sdss-v-fps.csv"
 
 
@@ -290,7 +290,7 @@ class Layout(LayoutCsv, LayoutNeighbours):
 
         Extra columns ``row``, ``col``, ``assignment`` (strings; outer ring row ``-99``).
         """
-        ref = resources.files("models.data").joinpath(SDSS_V_FPS_CSV)
+        ref = resources.files("rfp_twin.models.data").joinpath(SDSS_V_FPS_CSV)
         with resources.as_file(ref) as path:
             return cls.from_csv(path, name="sdss-v-fps")
 

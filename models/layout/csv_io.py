@@ -3,8 +3,8 @@
 Units: millimetres. One row per position: integer ``id``, base centre ``x_mm``,
 ``y_mm`` and ``kind`` (``robot`` or ``fiducial``); other columns are kept verbatim as
 ``(n,)`` str arrays. Coordinates are written with ``repr`` so they read back
-bit-identical; a file is replaced atomically (:mod:`models.files`). A bad file raises
-:class:`models.errors.LayoutError` naming the file, line and field.
+bit-identical; a file is replaced atomically (:mod:`rfp_twin.models.files`). A bad file raises
+:class:`rfp_twin.models.errors.LayoutError` naming the file, line and field.
 """
 from __future__ import annotations
 
@@ -17,19 +17,19 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from models.errors import LayoutError
-from models.files import atomic_write_text
-from models.layout.checks import KINDS, closest_violation
+from rfp_twin.models.errors import LayoutError
+from rfp_twin.models.files import atomic_write_text
+from rfp_twin.models.layout.checks import KINDS, closest_violation
 
 if TYPE_CHECKING:
-    from models.layout.core import Layout
+    from rfp_twin.models.layout.core import Layout
 
 #: Columns every layout CSV must have, in the order :meth:`Layout.to_csv` writes them.
 REQUIRED_COLUMNS = ("id", "x_mm", "y_mm", "kind")
 
 
 class LayoutCsv:
-    """CSV reading and writing of :class:`models.layout.Layout` (a mixin: uses its
+    """CSV reading and writing of :class:`rfp_twin.models.layout.Layout` (a mixin: uses its
     ``ids``, ``xy``, ``kinds`` and ``extra``)."""
 
     ids: np.ndarray

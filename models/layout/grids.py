@@ -4,7 +4,7 @@ Units: millimetres. A centred hex grid with ``r`` rings has ``1 + 3 r (r + 1)``
 positions (7, 19, 37, 61, 91, ...). Axial coordinates ``(q, r)`` are ``(n, 2)`` int64;
 base coordinates ``(n, 2)`` float64 mm, rows along +x as on the SDSS-V focal plane.
 The Sayres 2021 all-robot grid is the 13-ring one (547 positions, Sect. 3.2).
-:class:`models.layout.Layout` builds its generated grids from these.
+:class:`rfp_twin.models.layout.Layout` builds its generated grids from these.
 """
 from __future__ import annotations
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from models.layout.checks import check_reach
+from rfp_twin.models.layout.checks import check_reach
 
 #: Tolerance added to neighbour reaches so that ``distance == reach`` counts, mm.
 REACH_TOL_MM = 1e-9
@@ -27,7 +27,7 @@ def csr_from_lists(lists, n_rows: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 class LayoutNeighbours:
-    """Neighbour queries of :class:`models.layout.Layout` (a mixin: uses its
+    """Neighbour queries of :class:`rfp_twin.models.layout.Layout` (a mixin: uses its
     ``robot_xy``, ``fiducial_xy``, ``n_robots`` and ``n_fiducials``)."""
 
     robot_xy: np.ndarray

@@ -4,24 +4,24 @@ Units inside the model: mm, kg, s, radians; the public API takes mm and degrees.
 body tree per robot (``r<id>`` > ``r<id>_alpha`` > ``r<id>_beta``, position servos on
 both hinges), ``fid<id>`` bodies for fiducials, the focal plate, two lights and three
 cameras. MuJoCo collides meshes as convex hulls, so collision geoms are the convex
-pieces from :mod:`models.geometry`. The broadphase only pairs geoms whose boxes
+pieces from :mod:`rfp_twin.models.geometry`. The broadphase only pairs geoms whose boxes
 overlap, so only neighbours (Sayres 2021 Eq. 4) reach the narrowphase:
 :meth:`TwinModel.neighbour_pairs` lists them. Modules:
 
-- :mod:`models.mjcf.options`: names, colours, :class:`ServoParams`, :class:`ModelOptions`
-- :mod:`models.mjcf.bodies`: robot and fiducial bodies, meshes, servos, contact bits
-- :mod:`models.mjcf.cameras`: plate, lights, cameras
-- :mod:`models.mjcf.build`: :func:`build_spec`, :func:`build_model`, :func:`export_model`
-- :mod:`models.mjcf.index`, :mod:`models.mjcf.twin_model`: the compiled model
+- :mod:`rfp_twin.models.mjcf.options`: names, colours, :class:`ServoParams`, :class:`ModelOptions`
+- :mod:`rfp_twin.models.mjcf.bodies`: robot and fiducial bodies, meshes, servos, contact bits
+- :mod:`rfp_twin.models.mjcf.cameras`: plate, lights, cameras
+- :mod:`rfp_twin.models.mjcf.build`: :func:`build_spec`, :func:`build_model`, :func:`export_model`
+- :mod:`rfp_twin.models.mjcf.index`, :mod:`rfp_twin.models.mjcf.twin_model`: the compiled model
 """
-from models.mjcf.build import build_model, build_spec, export_model
-from models.mjcf.cameras import closeup_pose, look_at_quat
-from models.mjcf.index import ModelIndex
-from models.mjcf.options import (BIT_ALPHA, BIT_BETA, CAMERAS, COLLISION_CLASS, COLLISION_GROUP,
+from rfp_twin.models.mjcf.build import build_model, build_spec, export_model
+from rfp_twin.models.mjcf.cameras import closeup_pose, look_at_quat
+from rfp_twin.models.mjcf.index import ModelIndex
+from rfp_twin.models.mjcf.options import (BIT_ALPHA, BIT_BETA, CAMERAS, COLLISION_CLASS, COLLISION_GROUP,
                                  FIBER_RGBA, MESH_DIR, MODEL_FILE, RGBA, VISUAL_CLASS,
                                  VISUAL_GROUP, ModelOptions, ServoParams,
                                  collect_mujoco_warnings, fiducial_name, robot_name)
-from models.mjcf.twin_model import TwinModel
+from rfp_twin.models.mjcf.twin_model import TwinModel
 
 __all__ = ["BIT_ALPHA", "BIT_BETA", "CAMERAS", "COLLISION_CLASS", "COLLISION_GROUP",
            "FIBER_RGBA", "MESH_DIR", "MODEL_FILE", "RGBA", "VISUAL_CLASS", "VISUAL_GROUP",

@@ -26,12 +26,12 @@ import mujoco
 import numpy as np
 import trimesh
 
-from models.geometry import RobotGeometry
-from models.layout import Layout
-from models.mjcf.options import (BIT_ALPHA, BIT_BETA, COLLISION_CLASS, COLLISION_GROUP,
+from rfp_twin.models.geometry import RobotGeometry
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.mjcf.options import (BIT_ALPHA, BIT_BETA, COLLISION_CLASS, COLLISION_GROUP,
                                  DEFAULT_FIBER_RGBA, FIBER_RGBA, MNM, RGBA, VISUAL_CLASS,
                                  VISUAL_GROUP, ServoParams, fiducial_name, robot_name)
-from models.robot import RobotSpec
+from rfp_twin.models.robot import RobotSpec
 
 
 def add_default_classes(s: mujoco.MjSpec):

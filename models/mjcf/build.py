@@ -2,9 +2,9 @@
 
 Lengths in mm, angles in degrees at this API. :func:`build_spec` assembles the
 uncompiled spec (default classes, robot and fiducial bodies from
-:mod:`models.mjcf.bodies`, plate, lights and cameras from :mod:`models.mjcf.cameras`);
+:mod:`rfp_twin.models.mjcf.bodies`, plate, lights and cameras from :mod:`rfp_twin.models.mjcf.cameras`);
 :func:`build_model` compiles it into a :class:`TwinModel`; :func:`export_model` writes
-``rfp-twin.xml`` and its STL meshes. Errors raise :class:`models.errors.SpecError`.
+``rfp-twin.xml`` and its STL meshes. Errors raise :class:`rfp_twin.models.errors.SpecError`.
 """
 from __future__ import annotations
 
@@ -13,16 +13,16 @@ from pathlib import Path
 import mujoco
 import trimesh
 
-from models.errors import SpecError
-from models.files import atomic_write_bytes
-from models.geometry import RobotGeometry, geometry_for_spec
-from models.layout import Layout
-from models.mjcf.bodies import add_default_classes, add_grid
-from models.mjcf.cameras import add_scene
-from models.mjcf.index import ModelIndex
-from models.mjcf.options import INTEGRATORS, MESH_DIR, MODEL_FILE, ModelOptions, servo_for
-from models.mjcf.twin_model import TwinModel
-from models.robot import RobotSpec
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.files import atomic_write_bytes
+from rfp_twin.models.geometry import RobotGeometry, geometry_for_spec
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.mjcf.bodies import add_default_classes, add_grid
+from rfp_twin.models.mjcf.cameras import add_scene
+from rfp_twin.models.mjcf.index import ModelIndex
+from rfp_twin.models.mjcf.options import INTEGRATORS, MESH_DIR, MODEL_FILE, ModelOptions, servo_for
+from rfp_twin.models.mjcf.twin_model import TwinModel
+from rfp_twin.models.robot import RobotSpec
 
 
 def build_spec(spec: RobotSpec, layout: Layout, geometry: RobotGeometry | None = None,
@@ -33,7 +33,7 @@ def build_spec(spec: RobotSpec, layout: Layout, geometry: RobotGeometry | None =
     Parameters
     ----------
     spec, layout : the robots and where they stand.
-    geometry : RobotGeometry, default :func:`models.geometry.geometry_for_spec`.
+    geometry : RobotGeometry, default :func:`rfp_twin.models.geometry.geometry_for_spec`.
     options : ModelOptions.
     mesh_files : dict, optional
         If given, meshes refer to files ``<name>.stl`` (in ``meshdir`` "meshes") and this

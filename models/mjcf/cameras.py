@@ -11,9 +11,9 @@ import math
 import mujoco
 import numpy as np
 
-from models.geometry import GeometryParams
-from models.layout import Layout
-from models.robot import RobotSpec
+from rfp_twin.models.geometry import GeometryParams
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import RobotSpec
 
 
 def look_at_quat(pos: np.ndarray, target: np.ndarray, up=(0.0, 0.0, 1.0)) -> np.ndarray:

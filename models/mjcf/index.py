@@ -11,8 +11,8 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from models.layout import Layout
-from models.mjcf.options import CAMERAS, COLLISION_GROUP, fiducial_name, robot_name
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.mjcf.options import CAMERAS, COLLISION_GROUP, fiducial_name, robot_name
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ Units inside the model: millimetres, kilograms, seconds (torques in kg mm^2 / s^
 Every magic string of the model is defined here: default classes, geom groups,
 contact bits, camera names, body names (``r<id>``, ``r<id>_alpha``, ``fid<id>``).
 :class:`ServoParams` are the position servos, :class:`ModelOptions` how the model is
-built; bad values raise :class:`models.errors.SpecError`.
+built; bad values raise :class:`rfp_twin.models.errors.SpecError`.
 """
 from __future__ import annotations
 
@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import mujoco
 
-from models.errors import SpecError
-from models.robot import RobotSpec, load_tables, spec_origin
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.robot import RobotSpec, load_tables, spec_origin
 
 # -- constants: every magic string in one place ------------------------------------
 VISUAL_CLASS = "visual"

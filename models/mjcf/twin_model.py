@@ -10,12 +10,12 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from models.geometry import RobotGeometry
-from models.layout import Layout
-from models.mjcf.cameras import closeup_pose, quat_to_mat
-from models.mjcf.index import ModelIndex
-from models.mjcf.options import ModelOptions
-from models.robot import RobotSpec
+from rfp_twin.models.geometry import RobotGeometry
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.mjcf.cameras import closeup_pose, quat_to_mat
+from rfp_twin.models.mjcf.index import ModelIndex
+from rfp_twin.models.mjcf.options import ModelOptions
+from rfp_twin.models.robot import RobotSpec
 
 
 @dataclass

@@ -4,21 +4,21 @@ Each robot descends its own navigation function (attraction to its target, sign-
 repulsion from its neighbours; CAPF adds its neighbours' remaining errors), integrated
 by Euler steps of 10 ms from any start straight to the targets. Units: mm, deg, s.
 
-Modules: :mod:`~planners.apf.settings` (parameters, resolved distances),
-:mod:`~planners.apf.capf` (the cooperative weight), :mod:`~planners.apf.field` (distances
-and gradients), :mod:`~planners.apf.kernel` (the numba integration loop),
-:mod:`~planners.apf.driver` (plan_apf, the CLI-shaped entry),
-:mod:`~planners.apf.result` (ApfResult, its Plan), :mod:`~planners.apf.tips` (random
+Modules: :mod:`~rfp_twin.planners.apf.settings` (parameters, resolved distances),
+:mod:`~rfp_twin.planners.apf.capf` (the cooperative weight), :mod:`~rfp_twin.planners.apf.field` (distances
+and gradients), :mod:`~rfp_twin.planners.apf.kernel` (the numba integration loop),
+:mod:`~rfp_twin.planners.apf.driver` (plan_apf, the CLI-shaped entry),
+:mod:`~rfp_twin.planners.apf.result` (ApfResult, its Plan), :mod:`~rfp_twin.planners.apf.tips` (random
 tip-model configurations).
 """
-from planners.apf.capf import DEFAULT_LAMBDA3, CapfSettings
-from planners.apf.driver import (apf_target_margin_mm, nearest_spacing_mm, plan_apf,
+from rfp_twin.planners.apf.capf import DEFAULT_LAMBDA3, CapfSettings
+from rfp_twin.planners.apf.driver import (apf_target_margin_mm, nearest_spacing_mm, plan_apf,
                                  plan_apf_reconfiguration)
-from planners.apf.kernel import run_apf
-from planners.apf.result import STOP_REASONS, ApfResult, apf_plan
-from planners.apf.settings import (MODELS, SEGMENT_ENVELOPE_MM, TIP_D_MM, TIP_ENVELOPE_MM,
+from rfp_twin.planners.apf.kernel import run_apf
+from rfp_twin.planners.apf.result import STOP_REASONS, ApfResult, apf_plan
+from rfp_twin.planners.apf.settings import (MODELS, SEGMENT_ENVELOPE_MM, TIP_D_MM, TIP_ENVELOPE_MM,
                                    ApfSettings, default_margin_mm)
-from planners.apf.tips import random_tip_configs
+from rfp_twin.planners.apf.tips import random_tip_configs
 
 __all__ = [
     "ApfResult", "ApfSettings", "CapfSettings", "DEFAULT_LAMBDA3", "MODELS",

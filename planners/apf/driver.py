@@ -1,10 +1,10 @@
 """Entry points of the potential-field planners: plan_apf and the CLI-shaped wrapper.
 
 Direct planning (Makarem et al. 2014; Macktoobian et al. 2019): from any start
-configuration straight to the targets, one run of :func:`planners.apf.kernel.run_apf`,
+configuration straight to the targets, one run of :func:`rfp_twin.planners.apf.kernel.run_apf`,
 no reversal, no target replacement. This module checks the inputs, resolves the
 settings into the kernel's arguments (neighbour CSR, distances in mm, speeds and angles
-in radians) and packs the outcome into an :class:`planners.apf.result.ApfResult`.
+in radians) and packs the outcome into an :class:`rfp_twin.planners.apf.result.ApfResult`.
 
 Angles: the public API is in degrees, radians inside the kernel. Alpha is integrated as
 a continuous angle by default (the field is 360-periodic in alpha and the papers'
@@ -23,16 +23,16 @@ import time
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from models.errors import TargetError
-from models.kinematics import forward
-from planners.apf.field import _start_violation
-from planners.apf.kernel import run_apf
-from planners.apf.result import STOP_REASONS, ApfResult, _trajectory, apf_plan
-from planners.apf.settings import DEG, ApfSettings
-from planners.offline import apply_offline
-from planners.targets import check_angles
-from planners.plan import Plan
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import TargetError
+from rfp_twin.models.kinematics import forward
+from rfp_twin.planners.apf.field import _start_violation
+from rfp_twin.planners.apf.kernel import run_apf
+from rfp_twin.planners.apf.result import STOP_REASONS, ApfResult, _trajectory, apf_plan
+from rfp_twin.planners.apf.settings import DEG, ApfSettings
+from rfp_twin.planners.offline import apply_offline
+from rfp_twin.planners.targets import check_angles
+from rfp_twin.planners.plan import Plan
 
 
 def _neighbours(geom: ArrayGeometry, settings: ApfSettings, D: float, D_f: float):
@@ -92,7 +92,7 @@ def plan_apf(geom: ArrayGeometry, start, targets, settings: ApfSettings | None =
 
     Targets closer than about ``d + 1`` mm (tip model; the equilibrium of attraction
     and repulsion) cannot be reached within 100 um, and targets within ``d`` never:
-    those robots end not converged. :func:`planners.apf.tips.random_tip_configs` and
+    those robots end not converged. :func:`rfp_twin.planners.apf.tips.random_tip_configs` and
     :func:`apf_target_margin_mm` draw targets that can.
 
     Raises
@@ -174,7 +174,7 @@ def plan_apf_reconfiguration(geom: ArrayGeometry, targets, settings: ApfSettings
                              algorithm: str = "apf") -> tuple[Plan, ApfResult]:
     """CLI-shaped entry: plan from the folded state (or ``start``) to ``targets``.
 
-    Like :func:`planners.solver.plan_reconfiguration` but direct (forward), single run,
+    Like :func:`rfp_twin.planners.solver.plan_reconfiguration` but direct (forward), single run,
     no target replacement: robots that do not converge are DEADLOCKED.
 
     Parameters
@@ -192,7 +192,7 @@ def plan_apf_reconfiguration(geom: ArrayGeometry, targets, settings: ApfSettings
     Raises
     ------
     UnknownRobotError, TargetError
-        Bad offline robots (:func:`planners.offline.apply_offline`), or as :func:`plan_apf`.
+        Bad offline robots (:func:`rfp_twin.planners.offline.apply_offline`), or as :func:`plan_apf`.
     """
     n = geom.n_robots
     if start is None:
@@ -209,9 +209,9 @@ def plan_apf_reconfiguration(geom: ArrayGeometry, targets, settings: ApfSettings
 def apf_target_margin_mm(geom: ArrayGeometry, settings: ApfSettings) -> float:
     """Clearance beyond Eq. 3 (segment mode) that targets need so the barrier allows them.
 
-    Pass it as ``margin_mm`` to :func:`planners.targets.random_targets`. In tip mode the
+    Pass it as ``margin_mm`` to :func:`rfp_twin.planners.targets.random_targets`. In tip mode the
     capsule clearance does not bound the tip distance; use
-    :func:`planners.apf.tips.random_tip_configs`.
+    :func:`rfp_twin.planners.apf.tips.random_tip_configs`.
     """
     d, D, _, _, _ = settings.distances(geom)
     if settings.model == "segment":

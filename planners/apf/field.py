@@ -16,7 +16,7 @@ elbow x, elbow y), shape (n, 6). Distances are between tips (tip model) or beta
 collision segments (segment model, Sayres et al. 2021 Eq. 3); in segment mode the force
 acts at the closest point ``p`` of the segment, whose Jacobian is the tip's with
 ``l_beta`` replaced by its distance ``r`` along the arm (:func:`_jt`). Segment distances
-come from :mod:`models.geometry2d`. Lengths in mm, angles in radians.
+come from :mod:`rfp_twin.models.geometry2d`. Lengths in mm, angles in radians.
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 
 # the point-segment projection and crossing test of the planner's capsule geometry
-from models.geometry2d import _project_sq, _segments_cross, segment_closest
+from rfp_twin.models.geometry2d import _project_sq, _segments_cross, segment_closest
 
 
 @njit(cache=True)
@@ -50,7 +50,7 @@ def _seg_closest(ax, ay, bx, by, cx, cy, dx, dy):
     """Closest points of segments AB and CD: (distance, t on AB, P on AB, Q on CD).
 
     Crossing segments return distance 0 (P = Q = the crossing point); otherwise
-    :func:`models.geometry2d.segment_closest`.
+    :func:`rfp_twin.models.geometry2d.segment_closest`.
     """
     if _segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
         d1 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)

@@ -5,10 +5,10 @@ Every robot ``i`` descends its own potential (Makarem et al. 2014, Eq. 2)::
     psi_i = lambda1 |q_i - q_iT|^2 + lambda2 sum_j rep(s_ij)
 
 with joint velocities ``u_i = -J_i^T grad_q psi_i`` (Makarem 2014, Eqs. 3-4; ``rep`` is
-sign-corrected, see :mod:`planners.apf.field`), integrated by Euler steps of ``dt``
+sign-corrected, see :mod:`rfp_twin.planners.apf.field`), integrated by Euler steps of ``dt``
 until every fiber tip is within ``tol`` of its target. With ``lambda3 > 0`` robot i's
 Cartesian push also gets its cooperative neighbours' remaining errors, as a vector
-field (Macktoobian et al. 2019, Eq. 5; :mod:`planners.apf.capf`).
+field (Macktoobian et al. 2019, Eq. 5; :mod:`rfp_twin.planners.apf.capf`).
 
 Not in the papers, and what this kernel does
 --------------------------------------------
@@ -60,7 +60,7 @@ import math
 import numpy as np
 from numba import njit
 
-from planners.apf.field import _barrier_weight, _fid, _jt, _pair, _pose
+from rfp_twin.planners.apf.field import _barrier_weight, _fid, _jt, _pair, _pose
 
 #: Halvings of a guarded step before it is cancelled.
 GUARD_HALVINGS = 4

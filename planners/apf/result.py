@@ -1,10 +1,10 @@
 """What a potential-field run returns: ApfResult, its Trajectory and its Plan.
 
-The kernel (:mod:`planners.apf.kernel`) records breakpoints (robot, axis, Euler step,
-angle rad); :func:`_trajectory` turns them into a :class:`models.trajectory.Trajectory`
+The kernel (:mod:`rfp_twin.planners.apf.kernel`) records breakpoints (robot, axis, Euler step,
+angle rad); :func:`_trajectory` turns them into a :class:`rfp_twin.models.trajectory.Trajectory`
 (deg, s), sending axes with more than ``max_points`` breakpoints through
-:func:`planners.simplify.simplify_axis` (RDP, tolerance raised until they fit).
-:func:`apf_plan` turns a result into a :class:`planners.plan.Plan` on a step clock
+:func:`rfp_twin.planners.simplify.simplify_axis` (RDP, tolerance raised until they fit).
+:func:`apf_plan` turns a result into a :class:`rfp_twin.planners.plan.Plan` on a step clock
 ``step_s = dt`` with the solver's metric keys. Angles in deg, times in s, lengths in mm.
 """
 from __future__ import annotations
@@ -13,11 +13,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from models.errors import SpecError, field_error
-from models.trajectory import Trajectory
-from planners.apf.settings import DEG, ApfSettings
-from planners.plan import DEADLOCKED, OFFLINE, REACHED, Plan
-from planners.simplify import simplify_axis
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.apf.settings import DEG, ApfSettings
+from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, Plan
+from rfp_twin.planners.simplify import simplify_axis
 
 #: Why a run stopped (``ApfResult.stop_reason``), by the kernel's stop code.
 STOP_REASONS = ("converged", "stalled", "max_time")
@@ -25,7 +25,7 @@ STOP_REASONS = ("converged", "stalled", "max_time")
 
 @dataclass
 class ApfResult:
-    """Outcome of one :func:`planners.apf.plan_apf` run (APF or CAPF).
+    """Outcome of one :func:`rfp_twin.planners.apf.plan_apf` run (APF or CAPF).
 
     Attributes
     ----------
@@ -106,7 +106,7 @@ class ApfResult:
         return bool(np.all(self.converged[self.movable]))
 
     def metrics(self) -> dict:
-        """The solver's metric keys (planners.solver.plan_reconfiguration) plus APF ones.
+        """The solver's metric keys (rfp_twin.planners.solver.plan_reconfiguration) plus APF ones.
 
         No target is ever replaced, so ``efficiency`` (Eq. 11) and ``convergence`` are
         both the converged fraction of the movable robots; ``tau_pg_s`` is the kernel
@@ -134,7 +134,7 @@ class ApfResult:
 
 
 def apf_plan(result: ApfResult) -> Plan:
-    """A :class:`planners.plan.Plan` on the Euler step clock (``step_s = dt``).
+    """A :class:`rfp_twin.planners.plan.Plan` on the Euler step clock (``step_s = dt``).
 
     Each robot's breakpoints are the union of its alpha and beta breakpoint steps, the
     other axis interpolated linearly (exact: both axes are linear between their own

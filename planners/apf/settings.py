@@ -2,7 +2,7 @@
 
 :class:`ApfSettings` holds every parameter of the navigation-function planner (Makarem
 et al. 2014) and, through ``lambda3``, of its cooperative variant (Macktoobian et al.
-2019, :class:`planners.apf.capf.CapfSettings`). Units: mm, deg, s.
+2019, :class:`rfp_twin.planners.apf.capf.CapfSettings`). Units: mm, deg, s.
 
 Collision models
 ----------------
@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from models.errors import SpecError, field_error
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import SpecError, field_error
 
 DEG = math.pi / 180.0
 #: Collision models of :class:`ApfSettings`.
@@ -71,7 +71,7 @@ class ApfSettings:
         Attractive and repulsive weights (Makarem 2014: 1 and 0.05), in (0, 1000].
     lambda3 : float
         Cooperative weight (Macktoobian 2019, Eq. 5); 0 = plain APF.
-        :class:`planners.apf.capf.CapfSettings` sets it; here it must be in [0, lambda1).
+        :class:`rfp_twin.planners.apf.capf.CapfSettings` sets it; here it must be in [0, lambda1).
     gain : float
         ``u = -gain J^T grad psi`` (1/s, lengths in mm), in (0, 1000]. The paper states
         no units, so its weights fix the shape of the field but not its time scale:
@@ -102,10 +102,10 @@ class ApfSettings:
         closer than this to the alpha axis, i.e. for |l_alpha - l_beta| below it (DESI).
     implicit_attraction : bool
         Linearly implicit Euler step in the attractive term (see
-        :mod:`planners.apf.kernel`); False = plain explicit Euler as in the paper.
+        :mod:`rfp_twin.planners.apf.kernel`); False = plain explicit Euler as in the paper.
     guard : bool
         Halve/cancel steps that would bring a pair within ``d`` (see
-        :mod:`planners.apf.kernel`).
+        :mod:`rfp_twin.planners.apf.kernel`).
     stall_window_s, stall_deg : float
         Stop early when no robot's net displacement over the last ``stall_window_s``
         (in (0, 600] s) exceeds ``stall_deg`` (in [0, 10] deg) on either axis.

@@ -4,8 +4,8 @@ Makarem et al. 2014 (Sect. 6) test their planner on random starts and targets wh
 fiber tips are "at least d apart". :func:`random_tip_configs` draws such
 configurations: right-armed, tips uniform (by area) in the patrol annulus, clear of the
 tips already placed and of the fiducial disks. Only tips count (not the arms' capsules):
-for the segment model use :func:`planners.targets.random_targets` with
-:func:`planners.apf.apf_target_margin_mm`. Angles in deg, lengths in mm.
+for the segment model use :func:`rfp_twin.planners.targets.random_targets` with
+:func:`rfp_twin.planners.apf.apf_target_margin_mm`. Angles in deg, lengths in mm.
 """
 from __future__ import annotations
 
@@ -14,10 +14,10 @@ import math
 import numpy as np
 from numba import njit
 
-from models.array import ArrayGeometry
-from models.errors import TargetError
-from models.kinematics import sample_patrol_zone
-from planners.apf.settings import DEG, _num
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import TargetError
+from rfp_twin.models.kinematics import sample_patrol_zone
+from rfp_twin.planners.apf.settings import DEG, _num
 
 
 @njit(cache=True)

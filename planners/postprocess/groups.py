@@ -1,8 +1,8 @@
 """Per-group work of the pipeline: time, sample and simplify one group; assemble the groups.
 
-A group (robots sharing one path parameter, :func:`planners.timing.interaction_groups`)
-is timed by :func:`planners.timing.time_group`, sampled every ``sample_s`` seconds and
-each of its ``2k`` axes reduced by RDP (:func:`planners.simplify.simplify_columns`);
+A group (robots sharing one path parameter, :func:`rfp_twin.planners.timing.interaction_groups`)
+is timed by :func:`rfp_twin.planners.timing.time_group`, sampled every ``sample_s`` seconds and
+each of its ``2k`` axes reduced by RDP (:func:`rfp_twin.planners.simplify.simplify_columns`);
 a group whose piecewise-linear output exceeds the limits anyway (rounding) is slowed
 down uniformly (:func:`time_and_simplify`). :func:`assemble` places the groups in time
 (aligned on their end or their start) and builds the firmware trajectory, with the
@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.trajectory import Trajectory
-from planners.plan import Plan
-from planners.simplify import simplify_columns
-from planners.smoothing import SmoothPath
-from planners.timing import TimeLaw, pl_kinematics, time_group
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.plan import Plan
+from rfp_twin.planners.simplify import simplify_columns
+from rfp_twin.planners.smoothing import SmoothPath
+from rfp_twin.planners.timing import TimeLaw, pl_kinematics, time_group
 
 __all__ = ["TimedGroup", "time_and_simplify", "group_offsets", "assemble"]
 
@@ -49,7 +49,7 @@ def time_and_simplify(path: SmoothPath, robots: np.ndarray, vmax, amax, tol_robo
     """Time the group ``robots`` (k,), sample it and simplify every axis.
 
     ``vmax``, ``amax`` (2,) axis limits, deg/s and deg/s^2; ``tol_robot`` (n,) RDP
-    tolerance per robot, deg; the keywords as :func:`planners.postprocess.postprocess`.
+    tolerance per robot, deg; the keywords as :func:`rfp_twin.planners.postprocess.postprocess`.
     """
     law = time_group(path, robots, vmax, amax, grid_steps=grid_steps, backend=backend,
                      moving_range=moving_range)

@@ -2,31 +2,31 @@
 
 Pipeline (:func:`postprocess`):
 
-0. **Pre-simplify** (:func:`planners.simplify.simplify_plan`): each robot's stepwise
+0. **Pre-simplify** (:func:`rfp_twin.planners.simplify.simplify_plan`): each robot's stepwise
    breakpoints are reduced by RDP within ``presimplify_deg`` on both axes (at equal
    plan step), so the smoothed path of the reduced plan is within ``presimplify_deg``
    of the smoothed plan (the running average is an average: it does not increase a
    sup-norm difference). Markov plans have a breakpoint nearly every step; their
    one-step wiggles cost knots and gridpoints, and time where the wiggles are wider
    than the window.
-1. **Smooth** (:mod:`planners.smoothing`): the running-average velocity filter turns
+1. **Smooth** (:mod:`rfp_twin.planners.smoothing`): the running-average velocity filter turns
    each robot's stepwise path into a C1 path ``q_i(s)`` of the plan step ``s``. The
    default window spans the time an axis needs to reach full speed (``v / a``;
-   :func:`planners.smoothing.window_for_limits`, 200 steps for SDSS-V at 0.1 deg):
+   :func:`rfp_twin.planners.smoothing.window_for_limits`, 200 steps for SDSS-V at 0.1 deg):
    starts and stops then cost no slow-down, and one-step wiggles vanish.
-2. **Group** (:mod:`planners.timing`): neighbour pairs whose clearance falls below
+2. **Group** (:mod:`rfp_twin.planners.timing`): neighbour pairs whose clearance falls below
    ``interaction_mm`` at some step of the plan are edges; each connected component
    shares one path parameter, the other robots are timed alone.
-3. **Time** (:mod:`planners.timing`): time-optimal ``s(t)`` per group (TOPP-RA, by the
+3. **Time** (:mod:`rfp_twin.planners.timing`): time-optimal ``s(t)`` per group (TOPP-RA, by the
    ``toppra`` library or the numba kernel: ``backend``) under the spec's per-axis
    velocity and acceleration limits, from rest to rest. Groups are
    aligned on their end: every robot arrives when the slowest group does, as in the
    plan every robot arrives on its last step.
-4. **Sample and simplify** (:mod:`planners.simplify`): each group is sampled every
+4. **Sample and simplify** (:mod:`rfp_twin.planners.simplify`): each group is sampled every
    ``sample_s`` seconds and every axis reduced by Ramer-Douglas-Peucker to at most
    ``max_points`` points within ``tolerance_deg`` of the samples. The kept points are
    exact samples of the timed path, so their slopes and three-point accelerations (the
-   definitions of :func:`planners.timing.pl_kinematics`) are within the limits; a group
+   definitions of :func:`rfp_twin.planners.timing.pl_kinematics`) are within the limits; a group
    whose measured values exceed them anyway (rounding) is slowed down uniformly.
 5. **Verify**: the ``verifier`` handed in by the caller (the pipeline passes the
    independent 2D checker of ``validation/``; planners never import it) at ``buffer_mm -
@@ -38,14 +38,14 @@ Pipeline (:func:`postprocess`):
    checked again with their neighbours: the other pairs did not change (up to one
    common time shift when the longest group changes), so their earlier result stands.
    At most ``max_retries`` rounds; a trajectory that does not pass is never returned
-   (:class:`models.errors.PlanningError`).
+   (:class:`rfp_twin.models.errors.PlanningError`).
 
 The trajectory starts exactly at the plan's first configuration and ends exactly at
 its last (the plan is given in the executed direction, fold -> targets).
 
 This module is the driver loop; steps 3-4 per group are in
-:mod:`planners.postprocess.groups`, the bookkeeping and repair of step 5 in
-:mod:`planners.postprocess.verification`, the report in :mod:`planners.postprocess.report`.
+:mod:`rfp_twin.planners.postprocess.groups`, the bookkeeping and repair of step 5 in
+:mod:`rfp_twin.planners.postprocess.verification`, the report in :mod:`rfp_twin.planners.postprocess.report`.
 Units: mm, degrees, seconds, plan steps.
 """
 from __future__ import annotations
@@ -55,17 +55,17 @@ from typing import Any, Callable
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from models.errors import PlanningError, SpecError, field_error
-from models.trajectory import Trajectory
-from planners.plan import Plan
-from planners.postprocess.groups import TimedGroup, assemble, time_and_simplify
-from planners.postprocess.report import PostprocessReport, build_report
-from planners.postprocess.verification import (ClearanceLedger, repair, subset_trajectory,
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import PlanningError, SpecError, field_error
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.plan import Plan
+from rfp_twin.planners.postprocess.groups import TimedGroup, assemble, time_and_simplify
+from rfp_twin.planners.postprocess.report import PostprocessReport, build_report
+from rfp_twin.planners.postprocess.verification import (ClearanceLedger, repair, subset_trajectory,
                                                verify_neighbours)
-from planners.simplify import simplify_plan
-from planners.smoothing import METHODS, SmoothPath, smooth_plan, window_for_limits
-from planners.timing import BACKENDS, DEFAULT_BACKEND, interaction_groups, interaction_pairs
+from rfp_twin.planners.simplify import simplify_plan
+from rfp_twin.planners.smoothing import METHODS, SmoothPath, smooth_plan, window_for_limits
+from rfp_twin.planners.timing import BACKENDS, DEFAULT_BACKEND, interaction_groups, interaction_pairs
 
 #: ``verifier(trajectory, spec, layout, buffer_mm) -> report`` (see :func:`postprocess`).
 Verifier = Callable[..., Any]
@@ -140,8 +140,8 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     tolerance_deg : RDP tolerance, deg (raised per axis only if ``max_points`` forces it)
     presimplify_deg : RDP tolerance of the stepwise plan before smoothing, deg (0: off)
     smoothing, window_steps : method and initial window (plan steps) of
-        :func:`planners.smoothing.smooth_plan` [default window:
-        :func:`planners.smoothing.window_for_limits` of the spec and the plan's step]
+        :func:`rfp_twin.planners.smoothing.smooth_plan` [default window:
+        :func:`rfp_twin.planners.smoothing.window_for_limits` of the spec and the plan's step]
     interaction_mm : clearance below which two robots share one path parameter, mm
     sample_s : time step of the dense samples that RDP reduces, s
     grid_steps : longest TOPP-RA grid interval, plan steps
@@ -149,7 +149,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     backend : "toppra" (default: the library; a group it finds no solution for is timed
         by the numba kernel and counted in the report's ``timing_fallbacks``) or "numba"
         (the kernel only: the same trajectories 3-5x faster, e.g. for Markov plans)
-        (:func:`planners.timing.time_group`)
+        (:func:`rfp_twin.planners.timing.time_group`)
     max_retries : verification rounds after the first
     verifier : ``verifier(trajectory, spec, layout, buffer_mm) -> report`` with ``ok``,
         ``collisions``, ``pair_ids``, ``pair_min_distance_mm``, ... (the 2D checker of

@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from planners.postprocess.groups import group_offsets
-from planners.smoothing import SmoothPath, plan_deviation
-from planners.timing import pl_kinematics
+from rfp_twin.planners.postprocess.groups import group_offsets
+from rfp_twin.planners.smoothing import SmoothPath, plan_deviation
+from rfp_twin.planners.timing import pl_kinematics
 
 __all__ = ["TimedPath", "PostprocessReport", "build_report"]
 
@@ -68,7 +68,7 @@ class PostprocessReport:
 
     ``max_speed_deg_s`` / ``max_accel_deg_s2`` are measured on the returned
     piecewise-linear trajectory (slope; three-point acceleration, see
-    :func:`planners.timing.pl_kinematics`), per axis (alpha, beta).
+    :func:`rfp_twin.planners.timing.pl_kinematics`), per axis (alpha, beta).
     ``stage_seconds`` holds smooth, group, time, simplify, verify and total (retries
     included in each stage). ``max_slowdown`` is the largest uniform slow-down applied to
     a group to keep its piecewise-linear output within the limits (1 = none; a value
@@ -166,8 +166,8 @@ def build_report(plan, traj, groups, labels, path, ledger, spec, buffer_mm, budg
                  verify_buffer, smoothing, window_steps, window, tolerance_deg, max_points,
                  sample_s, interaction_mm, align, backend, rounds, retries, merges, tightened,
                  repaired, stages, clock) -> PostprocessReport:
-    """The report of a finished run (``groups``: :class:`planners.postprocess.groups.TimedGroup`
-    by label; ``ledger``: the :class:`planners.postprocess.verification.ClearanceLedger`, or
+    """The report of a finished run (``groups``: :class:`rfp_twin.planners.postprocess.groups.TimedGroup`
+    by label; ``ledger``: the :class:`rfp_twin.planners.postprocess.verification.ClearanceLedger`, or
     None when nothing was verified; ``clock``: ``time.perf_counter()`` at the start)."""
     vm = np.zeros(2)
     am = np.zeros(2)

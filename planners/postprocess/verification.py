@@ -17,8 +17,8 @@ import math
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from models.trajectory import Trajectory
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.trajectory import Trajectory
 
 __all__ = ["ClearanceLedger", "verify_neighbours", "subset_trajectory", "repair"]
 

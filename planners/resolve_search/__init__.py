@@ -1,6 +1,6 @@
 """Deadlock resolution that keeps targets: Sabater's state-time search for alpha/beta robots.
 
-A group of robots the stepwise planner (:mod:`planners.stepwise`) leaves deadlocked is
+A group of robots the stepwise planner (:mod:`rfp_twin.planners.stepwise`) leaves deadlocked is
 re-planned by prioritized state-time search (Sabater 2018) against the other robots'
 stepwise paths; the new paths are merged into the plan on the same step clock.
 
@@ -22,11 +22,11 @@ resolve
 
 Units: mm and degrees; time in planner steps.
 """
-from planners.resolve_search.paths import PathSet
-from planners.resolve_search.resolve import GroupResult, SearchOutcome, resolve_groups, search_group
-from planners.resolve_search.settings import SearchResolveSettings
-from planners.resolve_search.trim import trim_tails
-from planners.resolve_search.world import AlphaBetaWorld
+from rfp_twin.planners.resolve_search.paths import PathSet
+from rfp_twin.planners.resolve_search.resolve import GroupResult, SearchOutcome, resolve_groups, search_group
+from rfp_twin.planners.resolve_search.settings import SearchResolveSettings
+from rfp_twin.planners.resolve_search.trim import trim_tails
+from rfp_twin.planners.resolve_search.world import AlphaBetaWorld
 
 __all__ = ["AlphaBetaWorld", "GroupResult", "PathSet", "SearchOutcome", "SearchResolveSettings",
            "resolve_groups", "search_group", "trim_tails"]

@@ -1,9 +1,9 @@
 """Numba kernels of the search's collision tests: beta segments along a path and the
 step rule (Sayres 2021 Eqs. 6-7) against moving obstacles, static obstacles and points.
 
-:class:`planners.resolve_search.world.AlphaBetaWorld` builds the obstacle tables and
+:class:`rfp_twin.planners.resolve_search.world.AlphaBetaWorld` builds the obstacle tables and
 calls these in its ``collides`` / ``forbidden`` black boxes; :func:`pair_conflict`
-also serves :func:`planners.resolve_search.trim.trim_tails`.
+also serves :func:`rfp_twin.planners.resolve_search.trim.trim_tails`.
 
 Units: angles in deg, lengths in mm; a segment is (x0, y0, x1, y1), the beta arm from
 ``s0`` to ``s1`` mm along it; shapes in each docstring (T = steps of a time table).
@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from models.geometry2d import beta_segment, point_segment_distance, segments_within
+from rfp_twin.models.geometry2d import beta_segment, point_segment_distance, segments_within
 
 
 @njit(cache=True)

@@ -1,8 +1,8 @@
 """Per-robot breakpoint paths on the planner's step clock: :class:`PathSet`.
 
-The search (:mod:`planners.resolve_search.resolve`) reads the stepwise plan as a
+The search (:mod:`rfp_twin.planners.resolve_search.resolve`) reads the stepwise plan as a
 PathSet, replaces the paths of the groups it re-plans and hands it back as CSR arrays
-(:meth:`PathSet.to_csr`, the layout of :class:`planners.plan.Plan`). Linear
+(:meth:`PathSet.to_csr`, the layout of :class:`rfp_twin.planners.plan.Plan`). Linear
 interpolation between breakpoints on the step clock is the motion.
 
 Units: angles in deg, time in planner steps (float step indices).
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.errors import SpecError, field_error
+from rfp_twin.models.errors import SpecError, field_error
 
 
 @dataclass

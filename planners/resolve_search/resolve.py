@@ -1,9 +1,9 @@
 """Deadlock resolution that keeps targets: Sabater's state-time search for alpha/beta robots.
 
-The reverse GC/MC planner (:mod:`planners.stepwise`) sometimes leaves a group of robots
+The reverse GC/MC planner (:mod:`rfp_twin.planners.stepwise`) sometimes leaves a group of robots
 deadlocked (Sayres 2021 Sect. 5.2). Instead of replacing one target of the group, this
 module re-plans the group with the roadmap / state-time planner of
-:mod:`planners.roadmap` (Sabater 2018), in the planner's frame (reverse: each
+:mod:`rfp_twin.planners.roadmap` (Sabater 2018), in the planner's frame (reverse: each
 deadlocked robot goes from its target, at step 0, to the folded state):
 
 * every robot outside the group follows its existing stepwise path, a **moving
@@ -11,10 +11,10 @@ deadlocked robot goes from its target, at step 0, to the folded state):
   fiducials, offline robots and the joint limits are **static** (``forbidden``);
 * the group's robots are planned one at a time, each against the robots above it in a
   priority order (Sabater's Algorithm 1), and the order itself is searched
-  (:func:`planners.roadmap.priority_search`): where two trajectories conflict, one
+  (:func:`rfp_twin.planners.roadmap.priority_search`): where two trajectories conflict, one
   robot yields to the other and is planned again;
 * a deadlocked robot may keep, for as long as it likes, the stepwise motion it made
-  before it got stuck (its lead-in, :attr:`planners.roadmap.Arm.lead_in`); if that
+  before it got stuck (its lead-in, :attr:`rfp_twin.planners.roadmap.Arm.lead_in`); if that
   fails, the group is searched again from step 0;
 * a robot that finds no trajectory at all **recruits** the neighbours that blocked it
   most (robots that had reached their destination): they join the group below it and
@@ -36,7 +36,7 @@ priorities with 25 x 25 grids, 300 paths and 200 000 nodes per robot: - / 90 %.
 Whole-plan figures, with replacement where the search fails: benchmarks/RESULTS.md.
 
 The collision test on the step clock, and why the merged plan stays collision-free:
-:mod:`planners.resolve_search.world`.
+:mod:`rfp_twin.planners.resolve_search.world`.
 
 Units: mm and degrees; the search runs on the step clock (time unit = one planner step,
 ``step_s`` seconds).
@@ -49,12 +49,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from planners.resolve_search.paths import PathSet
-from planners.resolve_search.settings import SearchResolveSettings
-from planners.resolve_search.trim import trim_tails
-from planners.resolve_search.world import AlphaBetaWorld
-from planners.roadmap import Arm, ArmTrajectory, priority_search
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.planners.resolve_search.paths import PathSet
+from rfp_twin.planners.resolve_search.settings import SearchResolveSettings
+from rfp_twin.planners.resolve_search.trim import trim_tails
+from rfp_twin.planners.resolve_search.world import AlphaBetaWorld
+from rfp_twin.planners.roadmap import Arm, ArmTrajectory, priority_search
 
 
 @dataclass
@@ -137,7 +137,7 @@ def search_group(world: AlphaBetaWorld, group: np.ndarray, start: np.ndarray, de
                  rng: np.random.Generator):
     """Re-plan one deadlocked group by a search over priorities (Sabater's planner per robot).
 
-    Uses :func:`planners.roadmap.priority_search`: each robot is planned against the
+    Uses :func:`rfp_twin.planners.roadmap.priority_search`: each robot is planned against the
     robots above it only; pairwise conflicts branch on who yields. A robot that finds
     no trajectory recruits the non-deadlocked neighbours it met most (two at a time,
     ``settings.max_recruits`` in all): they join below it, free to leave their stepwise

@@ -1,7 +1,7 @@
 """Settings of the deadlock-resolving search: :class:`SearchResolveSettings`.
 
-The search (:mod:`planners.resolve_search.resolve`) plans each robot with the roadmap /
-state-time planner of :mod:`planners.roadmap` (Sabater 2018) on the stepwise planner's
+The search (:mod:`rfp_twin.planners.resolve_search.resolve`) plans each robot with the roadmap /
+state-time planner of :mod:`rfp_twin.planners.roadmap` (Sabater 2018) on the stepwise planner's
 step clock; :meth:`SearchResolveSettings.roadmap_settings` converts these settings to
 that clock (one action = a whole number of planner steps).
 
@@ -12,8 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from models.errors import SpecError, field_error
-from planners.roadmap import RoadmapSettings
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.planners.roadmap import RoadmapSettings
 
 
 @dataclass(frozen=True)
@@ -31,14 +31,14 @@ class SearchResolveSettings:
     max_paths : int, paths tried per robot and departure
     max_nodes : int, state-time nodes expanded per robot (all its paths)
     priority_nodes : int, nodes of the search over priorities per group and start
-        (:func:`planners.roadmap.priority_search`)
-    resume_edges : bool, see :class:`planners.roadmap.RoadmapSettings`
+        (:func:`rfp_twin.planners.roadmap.priority_search`)
+    resume_edges : bool, see :class:`rfp_twin.planners.roadmap.RoadmapSettings`
     max_recruits : int, most non-deadlocked neighbours that may join a group to make way
         for a robot they block (re-planned below it, free to leave their stepwise paths)
     max_departures : int, times at which a deadlocked robot may leave the stepwise
         motion it made before it got stuck (latest first)
     search : "sweep" (earliest arrival, one time layer at a time) | "dfs" (Sabater's
-        depth-first search); see :class:`planners.roadmap.RoadmapSettings`
+        depth-first search); see :class:`rfp_twin.planners.roadmap.RoadmapSettings`
     step0_first : search each group from step 0 first, then with the lead-ins (False:
         lead-ins first). A Markov run that deadlocks goes on to its step limit, its
         stuck robots stepping about all that time: keeping that motion delays the fold

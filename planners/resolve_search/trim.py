@@ -2,7 +2,7 @@
 
 A Markov run that deadlocks goes on to its step limit, and the robots around its stuck
 ones keep stepping aside and back (Sayres 2021 Eq. 10) all that time. Before the search
-(:mod:`planners.resolve_search.resolve`) those detours are cut where the step rule
+(:mod:`rfp_twin.planners.resolve_search.resolve`) those detours are cut where the step rule
 allows it, so that they are neither moving obstacles for the search nor length of the
 plan.
 
@@ -14,9 +14,9 @@ import math
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from planners.resolve_search.kernels import pair_conflict, segments_at
-from planners.resolve_search.paths import PathSet
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.planners.resolve_search.kernels import pair_conflict, segments_at
+from rfp_twin.planners.resolve_search.paths import PathSet
 
 
 def trim_tails(geom: ArrayGeometry, paths: PathSet, dest: np.ndarray, skip: np.ndarray,

@@ -1,6 +1,6 @@
 """The search's view of an alpha/beta array: one robot's black boxes on the step clock.
 
-:class:`AlphaBetaWorld` turns a robot of the array into a :class:`planners.roadmap.Arm`
+:class:`AlphaBetaWorld` turns a robot of the array into a :class:`rfp_twin.planners.roadmap.Arm`
 for the roadmap / state-time planner (Sabater 2018): ``forbidden(q)`` holds the static
 obstacles (joint limits, offline robots, fiducials) and ``collides(q, t)`` the moving
 ones (every other robot on its current path, a time table of beta segments).
@@ -13,8 +13,8 @@ must be farther apart than ``buffer_i + buffer_j + MD`` (fiducials ``buffer_i +
 fiducial_buffer + MD``), ``MD = max_displacement(...)``. Since both robots of a pair
 move at most one step per axis between two checks, that margin keeps the pair apart at
 the collision buffer in continuous time, exactly as it does for the stepwise planner
-(see :mod:`planners.stepwise.kernel`), so the merged plan passes
-:func:`validation.checker2d.check_trajectory` at the planning buffer.
+(see :mod:`rfp_twin.planners.stepwise.kernel`), so the merged plan passes
+:func:`rfp_twin.validation.checker2d.check_trajectory` at the planning buffer.
 
 Units: mm and degrees; time unit = one planner step (``step_s`` seconds).
 """
@@ -24,11 +24,11 @@ import math
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from planners.resolve_search.kernels import (moving_collisions, pair_conflict, reach_of,
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.planners.resolve_search.kernels import (moving_collisions, pair_conflict, reach_of,
                                              segments_at, static_collisions)
-from planners.resolve_search.paths import PathSet
-from planners.roadmap import Arm, ArmTrajectory
+from rfp_twin.planners.resolve_search.paths import PathSet
+from rfp_twin.planners.roadmap import Arm, ArmTrajectory
 
 #: Coordinate (mm) that puts an obstacle out of reach once it is gone.
 _FAR_MM = 1.0e7
@@ -42,7 +42,7 @@ class AlphaBetaWorld:
     geom : ArrayGeometry (layout, spec, buffers, Eq. 4 neighbours, fiducials)
     paths : PathSet, every robot's current path in the planning frame (step clock)
     movable : (n,) bool; False = offline robot (a static obstacle at its path's start)
-    md : float, step-rule margin MD, mm (:func:`planners.stepwise.max_displacement`)
+    md : float, step-rule margin MD, mm (:func:`rfp_twin.planners.stepwise.max_displacement`)
     step_deg : float, planner step, deg (the search's top speed: one step per axis per step)
     """
 
@@ -93,7 +93,7 @@ class AlphaBetaWorld:
 
     def arm(self, i: int, start: np.ndarray, goal: np.ndarray, t_start: float = 0.0,
             ignore: frozenset[int] = frozenset(), override: dict | None = None) -> Arm:
-        """Robot index i as a :class:`planners.roadmap.Arm` on the step clock.
+        """Robot index i as a :class:`rfp_twin.planners.roadmap.Arm` on the step clock.
 
         Parameters
         ----------

@@ -9,18 +9,18 @@ only through two vectorised black boxes per arm, ``forbidden(q)`` and ``collides
 units are the caller's. Randomness comes from a ``numpy.random.Generator``: same seed,
 same result.
 
-Modules: :mod:`~planners.roadmap.arm` (inputs, settings, outputs),
-:mod:`~planners.roadmap.graph` (the roadmap, Sect. 6.1), :mod:`~planners.roadmap.search`
+Modules: :mod:`~rfp_twin.planners.roadmap.arm` (inputs, settings, outputs),
+:mod:`~rfp_twin.planners.roadmap.graph` (the roadmap, Sect. 6.1), :mod:`~rfp_twin.planners.roadmap.search`
 (depth-first state-time search, Sect. 6.4, Algorithms 3-6),
-:mod:`~planners.roadmap.sweep` (the same graph, one time layer at a time),
-:mod:`~planners.roadmap.planner` (one arm, Algorithm 2), :mod:`~planners.roadmap.priority`
-(many arms: search over priorities). :mod:`planners.roadmap_array` runs it on a whole
+:mod:`~rfp_twin.planners.roadmap.sweep` (the same graph, one time layer at a time),
+:mod:`~rfp_twin.planners.roadmap.planner` (one arm, Algorithm 2), :mod:`~rfp_twin.planners.roadmap.priority`
+(many arms: search over priorities). :mod:`rfp_twin.planners.roadmap_array` runs it on a whole
 alpha/beta array.
 """
-from planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats
-from planners.roadmap.graph import Roadmap, build_roadmap, edge_time
-from planners.roadmap.planner import goal_clear_after, plan_arm
-from planners.roadmap.priority import PrioritySearchResult, priority_search
+from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats
+from rfp_twin.planners.roadmap.graph import Roadmap, build_roadmap, edge_time
+from rfp_twin.planners.roadmap.planner import goal_clear_after, plan_arm
+from rfp_twin.planners.roadmap.priority import PrioritySearchResult, priority_search
 
 __all__ = [
     "Arm", "ArmTrajectory", "PrioritySearchResult", "Roadmap", "RoadmapSettings",

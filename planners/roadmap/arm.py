@@ -22,7 +22,7 @@ from typing import Callable
 
 import numpy as np
 
-from models.errors import SpecError, field_error
+from rfp_twin.models.errors import SpecError, field_error
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class Arm:
     t_start : float, time at which the arm leaves ``start``
     hold_until : float, the arm must stay collision-free at ``goal`` until this time
         (goal conflicts: the arrival of the last higher-priority arm);
-        :func:`planners.roadmap.priority_search` raises it to the end of the arms above.
+        :func:`rfp_twin.planners.roadmap.priority_search` raises it to the end of the arms above.
     t_static : float or None, time after which ``collides(q, t)`` no longer depends on t
         (every obstacle has stopped). Enables pruning; None = unknown.
     extra_vertices : (k, d) float64 or None, vertices added to the grid (joint units)

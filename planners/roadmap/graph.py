@@ -8,7 +8,7 @@ time of Sabater 2018 Eq. 5, ``t_e = max_k |dtheta_k| / vmax_k`` per edge (ties i
 random order). Beyond the paper, ``RoadmapSettings.corner_vertices`` adds the vertices of
 "one joint after the other" and "every joint at full speed" moves
 (:func:`_corner_vertices`), which the grid may miss. Joint and time units are the
-caller's (:mod:`planners.roadmap.arm`).
+caller's (:mod:`rfp_twin.planners.roadmap.arm`).
 """
 from __future__ import annotations
 
@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.errors import SpecError, field_error
-from planners.roadmap.arm import Arm, RoadmapSettings
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.planners.roadmap.arm import Arm, RoadmapSettings
 
 
 @dataclass(frozen=True)

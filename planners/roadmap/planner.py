@@ -1,8 +1,8 @@
 """One arm: Sabater et al. 2018, Algorithm 2 (the first roadmap path that gets a trajectory).
 
-:func:`plan_arm` builds the arm's roadmap (:mod:`planners.roadmap.graph`), tries its
-paths cheapest first and searches each in state-time (:mod:`planners.roadmap.search`,
-or :mod:`planners.roadmap.sweep`). Goal conflicts (Sect. 6.4.2): an arm that parks
+:func:`plan_arm` builds the arm's roadmap (:mod:`rfp_twin.planners.roadmap.graph`), tries its
+paths cheapest first and searches each in state-time (:mod:`rfp_twin.planners.roadmap.search`,
+or :mod:`rfp_twin.planners.roadmap.sweep`). Goal conflicts (Sect. 6.4.2): an arm that parks
 before the arms of higher priority have arrived must stay collision-free at its goal
 until the last of them arrives (``Arm.hold_until``, :func:`goal_clear_after`). Beyond
 the paper, an arm with a ``lead_in`` may follow it first and leave it at one of a few
@@ -16,11 +16,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from models.errors import SpecError, field_error
-from planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats, _compress
-from planners.roadmap.graph import Roadmap, _check_step, _EdgeFeasibility, build_roadmap
-from planners.roadmap.search import _PathSearch
-from planners.roadmap.sweep import _PathSweep
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats, _compress
+from rfp_twin.planners.roadmap.graph import Roadmap, _check_step, _EdgeFeasibility, build_roadmap
+from rfp_twin.planners.roadmap.search import _PathSearch
+from rfp_twin.planners.roadmap.sweep import _PathSweep
 
 
 def goal_clear_after(arm: Arm, settings: RoadmapSettings) -> float:

@@ -16,9 +16,9 @@ from typing import Callable
 
 import numpy as np
 
-from models.errors import SpecError, field_error
-from planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings
-from planners.roadmap.planner import plan_arm
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings
+from rfp_twin.planners.roadmap.planner import plan_arm
 
 
 @dataclass

@@ -28,8 +28,8 @@ import math
 
 import numpy as np
 
-from planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats, _compress
-from planners.roadmap.graph import edge_time
+from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats, _compress
+from rfp_twin.planners.roadmap.graph import edge_time
 
 
 def _neighbour_actions(ns: int, m: int, n_stop: int | None) -> list[tuple[int, int]]:

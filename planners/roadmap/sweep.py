@@ -1,7 +1,7 @@
 """Earliest-arrival state-time search along one roadmap path, one time layer at a time.
 
 Beyond Sabater et al. 2018 (``RoadmapSettings(search="sweep")``, unlimited ``n_stop``
-only): the state-time graph of their Sect. 6.4 (:mod:`planners.roadmap.search`)
+only): the state-time graph of their Sect. 6.4 (:mod:`rfp_twin.planners.roadmap.search`)
 explored breadth first in time, all reachable positions of a layer checked in one
 black-box call; much faster than node-by-node depth-first search when the arm has to
 wait long or the path fails. The two numba kernels build the layer's queries and
@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats, _compress
-from planners.roadmap.search import _PathWalk
+from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats, _compress
+from rfp_twin.planners.roadmap.search import _PathWalk
 
 
 @njit(cache=True)

@@ -11,14 +11,14 @@ moves
 kernel
     :func:`run_stepwise`, the numba kernel: GC and MC on raw arrays.
 run
-    :func:`run_array`: the kernel on an :class:`models.array.ArrayGeometry`, with
+    :func:`run_array`: the kernel on an :class:`rfp_twin.models.array.ArrayGeometry`, with
     breakpoint buffers that grow on overflow; its outcome is a :class:`StepRun`.
 
 Units: angles in deg, lengths in mm, time in planner steps.
 """
-from planners.stepwise.kernel import ENERGY_CUTOFF_MM, NEAR_HORIZON, run_stepwise
-from planners.stepwise.moves import ANGLE_EPS, DEG, max_displacement
-from planners.stepwise.run import StepRun, run_array
+from rfp_twin.planners.stepwise.kernel import ENERGY_CUTOFF_MM, NEAR_HORIZON, run_stepwise
+from rfp_twin.planners.stepwise.moves import ANGLE_EPS, DEG, max_displacement
+from rfp_twin.planners.stepwise.run import StepRun, run_array
 
 __all__ = ["ANGLE_EPS", "DEG", "ENERGY_CUTOFF_MM", "NEAR_HORIZON", "StepRun", "max_displacement",
            "run_array", "run_stepwise"]

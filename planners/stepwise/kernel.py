@@ -26,7 +26,7 @@ latest states, and the pair's state after a step is the one checked last). Withi
 a point at distance r along the beta arm moves at most (l_alpha + 2 r) d (radians), so
 the pair distance cannot drop by more than (l_alpha + 2 r_max) d below the mean of its
 two end values, which MD covers whenever r_max <= l_beta + l_alpha / 2.
-:func:`planners.stepwise.moves.max_displacement` takes the larger of Eq. 7 and that
+:func:`rfp_twin.planners.stepwise.moves.max_displacement` takes the larger of Eq. 7 and that
 bound, so the guarantee holds for any segment.
 
 Speed (see benchmarks/RESULTS.md): no arrays are created inside the step loop and the
@@ -44,7 +44,7 @@ and only the chosen candidate's geometry is computed; about 97 % of MC visits ar
 on the SDSS-V layout. Random numbers come from an inline splitmix64.
 
 Units: angles in deg, lengths in mm, time in steps; array shapes in :func:`run_stepwise`.
-:mod:`planners.stepwise.run` calls the kernel on an array geometry.
+:mod:`rfp_twin.planners.stepwise.run` calls the kernel on an array geometry.
 """
 from __future__ import annotations
 
@@ -53,9 +53,9 @@ import math
 import numpy as np
 from numba import njit
 
-from models.geometry2d import (point_segment_distance, segment_closest_sq, segment_distance,
+from rfp_twin.models.geometry2d import (point_segment_distance, segment_closest_sq, segment_distance,
                                segments_within)
-from planners.stepwise.moves import ANGLE_EPS, DEG, _reach_from_cos, _rot, _sign, _toward
+from rfp_twin.planners.stepwise.moves import ANGLE_EPS, DEG, _reach_from_cos, _rot, _sign, _toward
 
 #: MC energy (Eq. 9) counts neighbours whose capsules may be nearer than this (mm).
 ENERGY_CUTOFF_MM = 12.0

@@ -2,7 +2,7 @@
 
 :func:`max_displacement` is the margin MD of the step rule (Sayres 2021 Eq. 7), raised
 where needed so that it bounds how far any point of a beta segment moves in one step
-(see :mod:`planners.stepwise.kernel`). The ``@njit(inline="always")`` helpers take
+(see :mod:`rfp_twin.planners.stepwise.kernel`). The ``@njit(inline="always")`` helpers take
 and return scalars only (no arrays, hence no reference counting when the kernel inlines
 them): a candidate move clipped to the joint limits and to the destination, the sign of
 an angle difference, (cos, sin) of an angle rotated by whole steps, and the reach of a

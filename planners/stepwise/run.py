@@ -1,11 +1,11 @@
 """One stepwise kernel run on an array: arguments from the geometry, breakpoint buffers.
 
-:func:`run_array` unpacks an :class:`models.array.ArrayGeometry` into the arrays
-:func:`planners.stepwise.kernel.run_stepwise` takes, allocates its breakpoint buffers
+:func:`run_array` unpacks an :class:`rfp_twin.models.array.ArrayGeometry` into the arrays
+:func:`rfp_twin.planners.stepwise.kernel.run_stepwise` takes, allocates its breakpoint buffers
 and runs it; when the buffers overflow it runs again, from scratch, with buffers four
 times larger (the kernel is deterministic for a given seed, so the result does not
 depend on the first size). The breakpoints come back as a :class:`StepRun`, in the
-kernel's order (step order); :func:`planners.plan.build_paths` turns them into paths.
+kernel's order (step order); :func:`rfp_twin.planners.plan.build_paths` turns them into paths.
 
 Units: angles in deg, lengths in mm, time in planner steps (wall time in s).
 """
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from planners.stepwise.kernel import run_stepwise
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.planners.stepwise.kernel import run_stepwise
 
 
 @dataclass
@@ -52,7 +52,7 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
     start, dest : (n, 2) deg
     movable : (n,) bool; robots that are False never move
     step_deg : float, planner step, deg; max_steps : int, step limit
-    md : float, step-rule margin MD, mm (:func:`planners.stepwise.moves.max_displacement`)
+    md : float, step-rule margin MD, mm (:func:`rfp_twin.planners.stepwise.moves.max_displacement`)
     greed, phobia : float in [0, 1], the Markov parameters of every robot; greed 1 and
         phobia 0 is the greedy planner
     seed : int, seed of the kernel's generator (Markov moves)

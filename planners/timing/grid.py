@@ -2,7 +2,7 @@
 
 Every knot of the group's smoothed paths is a gridpoint, so ``q''`` is constant between
 gridpoints and the kernel's interval constraints are exact
-(:mod:`planners.timing.kernel`). Intervals where a joint curves are cut at
+(:mod:`rfp_twin.planners.timing.kernel`). Intervals where a joint curves are cut at
 ``grid_steps`` (4 plan steps by default). Straight intervals, where every joint moves
 linearly, are cut coarsely: fine only in the *ramp zones* near their ends, where the
 time-optimal law can accelerate or brake, and at :data:`STRAIGHT_STEPS` in between
@@ -18,8 +18,8 @@ import math
 import numpy as np
 from numba import njit
 
-from planners.smoothing import SmoothPath
-from planners.timing.kernel import QD_EPS
+from rfp_twin.planners.smoothing import SmoothPath
+from rfp_twin.planners.timing.kernel import QD_EPS
 
 __all__ = ["STRAIGHT_STEPS", "group_grid"]
 

@@ -1,11 +1,11 @@
 """Timing one group: its grid, its path derivatives, its backend (:func:`time_group`).
 
 A group of ``k`` robots is one path with ``2k`` joints (alpha, beta of each robot), timed
-by one shared ``s(t)`` (:mod:`planners.timing.grouping` says which robots share one).
-:func:`time_group` builds the group's grid (:func:`planners.timing.grid.group_grid`),
+by one shared ``s(t)`` (:mod:`rfp_twin.planners.timing.grouping` says which robots share one).
+:func:`time_group` builds the group's grid (:func:`rfp_twin.planners.timing.grid.group_grid`),
 evaluates ``q'`` at the gridpoints and the constant ``q''`` of each interval, and hands
 the discretised problem to the backend chosen by name
-(:mod:`planners.timing.backends`); with ``"toppra"``, groups larger than
+(:mod:`rfp_twin.planners.timing.backends`); with ``"toppra"``, groups larger than
 :data:`TOPPRA_MAX_ROBOTS` and groups the library finds no solution for are timed by the
 numba kernel.
 
@@ -17,13 +17,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from models.errors import PlanningError, SpecError, field_error
-from planners.smoothing import SmoothPath
-from planners.timing.backends import DEFAULT_BACKEND, TimingProblem, get_backend
-from planners.timing.backends import numba_kernel
-from planners.timing.grid import group_grid
-from planners.timing.kernel import SD_CAP
-from planners.timing.law import TimeLaw
+from rfp_twin.models.errors import PlanningError, SpecError, field_error
+from rfp_twin.planners.smoothing import SmoothPath
+from rfp_twin.planners.timing.backends import DEFAULT_BACKEND, TimingProblem, get_backend
+from rfp_twin.planners.timing.backends import numba_kernel
+from rfp_twin.planners.timing.grid import group_grid
+from rfp_twin.planners.timing.kernel import SD_CAP
+from rfp_twin.planners.timing.law import TimeLaw
 
 __all__ = ["TOPPRA_MAX_ROBOTS", "time_group"]
 
@@ -48,18 +48,18 @@ def time_group(path: SmoothPath, robots, max_speed, max_accel, *, grid_steps: fl
     robots : (k,) robot indices of the group
     max_speed, max_accel : (2,) per-axis limits (alpha, beta), deg/s and deg/s^2
     grid_steps : longest interval between gridpoints where a joint curves, plan steps
-    backend : one of :data:`planners.timing.BACKENDS`: "toppra" (the library) or
+    backend : one of :data:`rfp_twin.planners.timing.BACKENDS`: "toppra" (the library) or
         "numba" (the kernel); both solve the same discretised problem on the same grid
     limit_margin : the limits are applied times this factor (rounding head-room)
     moving_range : ``path.moving_range()``, if already computed (saves time per group)
-    span : see :func:`planners.timing.grid.group_grid`
+    span : see :func:`rfp_twin.planners.timing.grid.group_grid`
     sd_cap : upper bound on ds/dt where no joint moves, steps/s
     straight_steps : longest interval of a cruise where every joint moves linearly
-        [default :data:`planners.timing.grid.STRAIGHT_STEPS`] (see
-        :func:`planners.timing.grid.group_grid`)
+        [default :data:`rfp_twin.planners.timing.grid.STRAIGHT_STEPS`] (see
+        :func:`rfp_twin.planners.timing.grid.group_grid`)
     fallback : with ``backend="toppra"``, time the group with the kernel when the
         library finds no solution (the law's ``solver`` is then "fallback"); False
-        raises :class:`models.errors.PlanningError` instead
+        raises :class:`rfp_twin.models.errors.PlanningError` instead
     toppra_max_robots : with ``backend="toppra"``, larger groups are timed by the kernel
         (solver "numba-large"); None = no limit
 

@@ -9,12 +9,12 @@ finds every Eq. 4 neighbour pair whose clearance ``D_ij - 2 sigma`` falls below 
 interaction distance at some step of the plan (continuous in the step: it walks the
 plan with strides that the pair cannot close in); those pairs are edges, and
 :func:`interaction_groups` returns the connected components. A group of ``k`` robots is
-one path with ``2k`` joints (:func:`planners.timing.time_group`).
+one path with ``2k`` joints (:func:`rfp_twin.planners.timing.time_group`).
 
 The interaction distance is a heuristic, not a proof: groups timed apart are at
 different ``s`` at the same instant, which the plan never checked. The post-processing
 pipeline therefore re-verifies the result and merges the groups of any pair that comes
-too close (:mod:`planners.postprocess`).
+too close (:mod:`rfp_twin.planners.postprocess`).
 
 Units: mm, degrees, plan steps. Pairs are (p, 2) robot indices in layout order.
 """
@@ -25,7 +25,7 @@ import math
 import numpy as np
 from numba import njit
 
-from models.geometry2d import DEG, beta_segment, segment_distance
+from rfp_twin.models.geometry2d import DEG, beta_segment, segment_distance
 
 __all__ = ["interaction_pairs", "interaction_groups"]
 

@@ -31,7 +31,7 @@ class TimeLaw:
     t : (N+1,) time of each gridpoint, s (t[0] = 0)
     solver : what computed it: "numba" (the kernel), "toppra" (the library), "fallback"
         (the kernel, after the library found no solution), "numba-large" (the kernel, for
-        a group too large for the library, :data:`planners.timing.TOPPRA_MAX_ROBOTS`) or
+        a group too large for the library, :data:`rfp_twin.planners.timing.TOPPRA_MAX_ROBOTS`) or
         "static" (nothing moves)
     """
 

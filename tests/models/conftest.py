@@ -8,21 +8,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.layout import Layout
-from models.robot import load_spec
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
 
 
 @pytest.fixture(scope="session")
 def sdss():
     """The procedural SDSS-V robot (RobotGeometry of the ``sdss-v`` preset)."""
-    from models.geometry import load_geometry
+    from rfp_twin.models.geometry import load_geometry
     return load_geometry("sdss-v")
 
 
 @pytest.fixture(scope="session")
 def sdss7():
     """The compiled MuJoCo model of 7 SDSS-V robots (one hex ring)."""
-    from models.mjcf import build_model
+    from rfp_twin.models.mjcf import build_model
     spec = load_spec("sdss-v")
     return build_model(spec, Layout.hex_grid(1, spec.pitch_mm))
 
@@ -31,7 +31,7 @@ def step_clean(m, d, n: int = 100) -> None:
     """Step a MuJoCo model n times; fail on any MuJoCo warning (message or counter)."""
     import mujoco
 
-    from models.mjcf import collect_mujoco_warnings
+    from rfp_twin.models.mjcf import collect_mujoco_warnings
     with collect_mujoco_warnings() as messages:
         for _ in range(n):
             mujoco.mj_step(m, d)

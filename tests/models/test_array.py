@@ -1,4 +1,4 @@
-"""Tests of models.array.ArrayGeometry on a 19-robot hex grid and the real SDSS-V layout.
+"""Tests of rfp_twin.models.array.ArrayGeometry on a 19-robot hex grid and the real SDSS-V layout.
 
 Sayres 2021 Eq. 3 (clearance D_ij - 2 sigma_cb) and Eq. 4 (neighbours within
 2 (la + lb + sigma_cb)).
@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from models.array import ArrayGeometry
-from models.errors import SpecError
-from models.layout import Layout
-from models.robot import load_spec
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
 
 PITCH = 22.4
 SPEC = load_spec("sdss-v")

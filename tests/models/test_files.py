@@ -1,4 +1,4 @@
-"""Tests of models.files: atomic writes (the content is replaced only once complete)."""
+"""Tests of rfp_twin.models.files: atomic writes (the content is replaced only once complete)."""
 from __future__ import annotations
 
 import os
@@ -6,7 +6,7 @@ import stat
 
 import pytest
 
-from models.files import atomic_write_bytes, atomic_write_text
+from rfp_twin.models.files import atomic_write_bytes, atomic_write_text
 
 
 def test_new_file_and_replacement(tmp_path):

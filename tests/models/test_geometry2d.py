@@ -1,4 +1,4 @@
-"""Tests of models.geometry2d: the 2D capsule model of Sayres 2021 Sect. 3.3 (Eqs. 1-3).
+"""Tests of rfp_twin.models.geometry2d: the 2D capsule model of Sayres 2021 Sect. 3.3 (Eqs. 1-3).
 
 The brute-force references below are independent numpy code: the distance between two
 segments is the minimum over dense sample points (spacing <= 2 um) on each segment of the
@@ -12,10 +12,10 @@ import math
 import numpy as np
 import pytest
 
-from models.geometry2d import (beta_segment, fiducial_distances, pair_distances,
+from rfp_twin.models.geometry2d import (beta_segment, fiducial_distances, pair_distances,
                                point_segment_distance, segment_closest, segment_closest_sq,
                                segment_distance, segments_within)
-from models.kinematics import forward
+from rfp_twin.models.kinematics import forward
 
 LA, LB, PITCH = 7.4, 15.0, 22.4
 H = 2e-3            # brute-force sample spacing, mm

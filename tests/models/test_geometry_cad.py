@@ -1,12 +1,12 @@
-"""Tests of models.geometry.cad: the user's own STL/OBJ link meshes and their convex pieces."""
+"""Tests of rfp_twin.models.geometry.cad: the user's own STL/OBJ link meshes and their convex pieces."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 import trimesh
 
-from models.errors import SpecError
-from models.geometry import load_cad_mesh, load_geometry, slab_pieces
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.geometry import load_cad_mesh, load_geometry, slab_pieces
 
 
 def _beta_cad() -> trimesh.Trimesh:

@@ -1,12 +1,12 @@
-"""Tests of models.geometry.dimensions: SDSS-V defaults, derived heights, spec-scaled defaults."""
+"""Tests of rfp_twin.models.geometry.dimensions: SDSS-V defaults, derived heights, spec-scaled defaults."""
 from __future__ import annotations
 
 import math
 
 import pytest
 
-from models.geometry import SDSS_V_DEFAULTS, default_params, geometry_for_spec
-from models.robot import load_spec, load_tables
+from rfp_twin.models.geometry import SDSS_V_DEFAULTS, default_params, geometry_for_spec
+from rfp_twin.models.robot import load_spec, load_tables
 
 
 def test_the_preset_table_matches_the_code_defaults():

@@ -1,13 +1,13 @@
-"""Tests of models.geometry.params: the [geometry] table, parsed and checked."""
+"""Tests of rfp_twin.models.geometry.params: the [geometry] table, parsed and checked."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import pytest
 
-from models.errors import SpecError
-from models.geometry import build_geometry, params_from_tables
-from models.robot import load_spec
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.geometry import build_geometry, params_from_tables
+from rfp_twin.models.robot import load_spec
 
 
 def test_bad_geometry_values_name_the_field():

@@ -1,4 +1,4 @@
-"""Tests of models.geometry.robot_geometry: the assembled 3D robot, its frames and envelope.
+"""Tests of rfp_twin.models.geometry.robot_geometry: the assembled 3D robot, its frames and envelope.
 
 Facts: Sayres 2021 Sect. 3.3 (beta arm half-width 1.5 mm is the physical envelope; alpha
 arms cannot collide at 22.4 mm pitch); SDSS-V coordio/kaiju 1.4.1 (production segment end).
@@ -10,9 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from models.errors import SpecError
-from models.geometry import LINKS, geometry_for_spec, load_geometry
-from models.robot import load_spec, sdss_production_segment_end
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.geometry import LINKS, geometry_for_spec, load_geometry
+from rfp_twin.models.robot import load_spec, sdss_production_segment_end
 
 
 def test_every_link_is_watertight_and_collision_pieces_are_convex(sdss):

@@ -1,4 +1,4 @@
-"""Tests of models.geometry.shapes: procedural outlines and meshes.
+"""Tests of rfp_twin.models.geometry.shapes: procedural outlines and meshes.
 
 Facts: SDSS-V coordio/kaiju 1.4.1 (beta axis to flat tip 16.2 mm, tip 0.6 mm wide, post
 radius 0.5 mm, fibers at (14.314, 0), (14.965, -0.376), (14.965, 0.376)).
@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from models.geometry import alpha_outline, beta_outline, cylinder, prism, union
+from rfp_twin.models.geometry import alpha_outline, beta_outline, cylinder, prism, union
 
 
 def test_beta_arm_has_the_published_dimensions(sdss):

@@ -1,4 +1,4 @@
-"""Tests of models.kinematics: Sayres 2021 Eqs. 1-2 forward/inverse, Eq. 13, patrol sampling."""
+"""Tests of rfp_twin.models.kinematics: Sayres 2021 Eqs. 1-2 forward/inverse, Eq. 13, patrol sampling."""
 from __future__ import annotations
 
 import math
@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from models.errors import RfpError, TargetError
-from models.kinematics import forward, inverse, sample_patrol_zone
+from rfp_twin.models.errors import RfpError, TargetError
+from rfp_twin.models.kinematics import forward, inverse, sample_patrol_zone
 
 LA, LB = 7.4, 15.0          # SDSS-V arms, Sayres 2021 Sect. 3.1
 R_IN, R_OUT = abs(LA - LB), LA + LB

@@ -1,4 +1,4 @@
-"""Tests of models.layout.core: the Layout type, its checks, id lookup and the SDSS-V layouts."""
+"""Tests of rfp_twin.models.layout.core: the Layout type, its checks, id lookup and the SDSS-V layouts."""
 from __future__ import annotations
 
 import math
@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from models.errors import LayoutError, UnknownRobotError
-from models.layout import Layout
+from rfp_twin.models.errors import LayoutError, UnknownRobotError
+from rfp_twin.models.layout import Layout
 
 PITCH = 22.4
 ROW_DY = PITCH * math.sqrt(3.0) / 2.0

@@ -1,11 +1,11 @@
-"""Tests of models.layout.by_name: a layout from the name the command line gives."""
+"""Tests of rfp_twin.models.layout.by_name: a layout from the name the command line gives."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from models.errors import LayoutError, UnknownRobotError
-from models.layout import Layout, layout_by_name
+from rfp_twin.models.errors import LayoutError, UnknownRobotError
+from rfp_twin.models.layout import Layout, layout_by_name
 
 
 def test_the_real_focal_plane():

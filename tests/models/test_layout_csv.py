@@ -1,11 +1,11 @@
-"""Tests of models.layout.csv_io: layout CSV files, read and written."""
+"""Tests of rfp_twin.models.layout.csv_io: layout CSV files, read and written."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from models.errors import LayoutError
-from models.layout import Layout
+from rfp_twin.models.errors import LayoutError
+from rfp_twin.models.layout import Layout
 
 PITCH = 22.4
 

@@ -1,4 +1,4 @@
-"""Tests of models.layout.grids and the generated grids: centred hex lattices (Sayres 2021 Sect. 3.2)."""
+"""Tests of rfp_twin.models.layout.grids and the generated grids: centred hex lattices (Sayres 2021 Sect. 3.2)."""
 from __future__ import annotations
 
 import math
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from models.errors import LayoutError
-from models.layout import Layout, hex_axial, hex_count, hex_rings, hex_xy, nearest_hex_counts
+from rfp_twin.models.errors import LayoutError
+from rfp_twin.models.layout import Layout, hex_axial, hex_count, hex_rings, hex_xy, nearest_hex_counts
 
 PITCH = 22.4
 ROW_DY = PITCH * math.sqrt(3.0) / 2.0

@@ -1,4 +1,4 @@
-"""Tests of models.layout.neighbours: neighbour lists within a reach (Sayres 2021 Eq. 4)."""
+"""Tests of rfp_twin.models.layout.neighbours: neighbour lists within a reach (Sayres 2021 Eq. 4)."""
 from __future__ import annotations
 
 import math
@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from models.errors import LayoutError
-from models.layout import Layout
+from rfp_twin.models.errors import LayoutError
+from rfp_twin.models.layout import Layout
 
 PITCH = 22.4
 

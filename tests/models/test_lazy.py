@@ -6,7 +6,7 @@ import types
 
 import pytest
 
-from models.lazy import lazy_exports
+from rfp_twin.models.lazy import lazy_exports
 
 
 def test_names_load_on_first_use_and_stay(monkeypatch):

@@ -1,13 +1,13 @@
-"""Tests of models.mjcf.bodies: robot trees, joints, servos, visual/collision geoms, contact bits."""
+"""Tests of rfp_twin.models.mjcf.bodies: robot trees, joints, servos, visual/collision geoms, contact bits."""
 from __future__ import annotations
 
 import mujoco
 import numpy as np
 import pytest
 
-from models.layout import Layout
-from models.mjcf import BIT_BETA, COLLISION_GROUP, VISUAL_GROUP, ModelOptions, ServoParams, build_model
-from models.robot import load_spec
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.mjcf import BIT_BETA, COLLISION_GROUP, VISUAL_GROUP, ModelOptions, ServoParams, build_model
+from rfp_twin.models.robot import load_spec
 
 
 def test_tree_joints_and_actuators(sdss7):

@@ -1,4 +1,4 @@
-"""Tests of models.mjcf.build: every generated model compiles and steps without a MuJoCo
+"""Tests of rfp_twin.models.mjcf.build: every generated model compiles and steps without a MuJoCo
 warning (mujoco_menagerie practice); export writes XML and meshes that load."""
 from __future__ import annotations
 
@@ -6,10 +6,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from models.errors import SpecError
-from models.layout import Layout
-from models.mjcf import ModelOptions, build_model, build_spec, collect_mujoco_warnings, export_model
-from models.robot import load_spec
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.mjcf import ModelOptions, build_model, build_spec, collect_mujoco_warnings, export_model
+from rfp_twin.models.robot import load_spec
 from tests.models.conftest import step_clean, with_fiducials
 
 

@@ -1,12 +1,12 @@
-"""Tests of models.mjcf.cameras: the three cameras, the close-up pose, lights and plate."""
+"""Tests of rfp_twin.models.mjcf.cameras: the three cameras, the close-up pose, lights and plate."""
 from __future__ import annotations
 
 import mujoco
 import numpy as np
 import pytest
 
-from models.mjcf import closeup_pose, look_at_quat
-from models.robot import load_spec
+from rfp_twin.models.mjcf import closeup_pose, look_at_quat
+from rfp_twin.models.robot import load_spec
 
 
 def test_cameras_and_closeup_aim(sdss7):

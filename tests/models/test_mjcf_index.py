@@ -1,11 +1,11 @@
-"""Tests of models.mjcf.index: ids of the compiled model per robot and fiducial index."""
+"""Tests of rfp_twin.models.mjcf.index: ids of the compiled model per robot and fiducial index."""
 from __future__ import annotations
 
 import mujoco
 import numpy as np
 
-from models.mjcf import build_model
-from models.robot import load_spec
+from rfp_twin.models.mjcf import build_model
+from rfp_twin.models.robot import load_spec
 from tests.models.conftest import with_fiducials
 
 

@@ -1,4 +1,4 @@
-"""Tests of models.mjcf.options: names, servo parameters and build options."""
+"""Tests of rfp_twin.models.mjcf.options: names, servo parameters and build options."""
 from __future__ import annotations
 
 import math
@@ -6,10 +6,10 @@ import math
 import mujoco
 import pytest
 
-from models.errors import SpecError
-from models.mjcf import ModelOptions, ServoParams, collect_mujoco_warnings, fiducial_name, robot_name
-from models.mjcf.options import servo_for
-from models.robot import load_spec
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.mjcf import ModelOptions, ServoParams, collect_mujoco_warnings, fiducial_name, robot_name
+from rfp_twin.models.mjcf.options import servo_for
+from rfp_twin.models.robot import load_spec
 
 
 def test_servo_params_from_the_actuators_table_and_errors():

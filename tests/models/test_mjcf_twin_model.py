@@ -1,4 +1,4 @@
-"""Tests of models.mjcf.twin_model: driving the compiled twin.
+"""Tests of rfp_twin.models.mjcf.twin_model: driving the compiled twin.
 
 Only robots whose parts can reach each other may make contacts; the 3D arms stay inside
 the 2D capsule the planner checks (Sayres 2021 Eq. 3 with buffer 1.5 mm, the arm
@@ -10,11 +10,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from models.array import ArrayGeometry
-from models.geometry import load_geometry
-from models.layout import Layout
-from models.mjcf import build_model
-from models.robot import load_spec
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.geometry import load_geometry
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.mjcf import build_model
+from rfp_twin.models.robot import load_spec
 
 
 def _robot_contact_pairs(twin, d) -> set[tuple[int, int]]:

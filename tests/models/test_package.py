@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
-import models
+from rfp_twin import models
 
 
 def test_import_models_loads_no_heavy_dependency():
-    code = ("import sys, models\n"
+    code = ("import sys\nfrom rfp_twin import models\n"
             "print(sorted(m for m in ('numba', 'scipy', 'trimesh', 'mujoco', 'manifold3d')"
             " if m in sys.modules))")
     root = Path(models.__file__).resolve().parent.parent           # this checkout's models
@@ -21,10 +21,10 @@ def test_import_models_loads_no_heavy_dependency():
 
 
 def test_every_public_name_resolves_to_its_module_object():
-    from models.array import ArrayGeometry
-    from models.kinematics import forward
-    from models.layout import Layout, layout_by_name
-    from models.mjcf import build_model
+    from rfp_twin.models.array import ArrayGeometry
+    from rfp_twin.models.kinematics import forward
+    from rfp_twin.models.layout import Layout, layout_by_name
+    from rfp_twin.models.mjcf import build_model
     assert models.Layout is Layout and models.layout_by_name is layout_by_name
     assert models.ArrayGeometry is ArrayGeometry and models.forward is forward
     assert models.build_model is build_model

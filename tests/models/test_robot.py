@@ -1,4 +1,4 @@
-"""Tests of models.robot: presets, TOML loading/validation, derived quantities.
+"""Tests of rfp_twin.models.robot: presets, TOML loading/validation, derived quantities.
 
 Facts: Sayres 2021 Sect. 3-4 (7.4 / 15 mm arms, 22.4 mm pitch, 30 deg/s, fold (10, 170),
 buffer 2.5 mm = Eq. 12, neighbour reach Eq. 4); SDSS-V coordio/kaiju 1.4.1 (production segment end
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from models.errors import RfpError, SpecError
-from models.robot import (RobotSpec, list_presets, load_spec, load_tables,
+from rfp_twin.models.errors import RfpError, SpecError
+from rfp_twin.models.robot import (RobotSpec, list_presets, load_spec, load_tables,
                           sdss_production_segment_end, spec_from_dict, spec_origin)
 
 # A complete, valid spec file; tests break one thing at a time.
@@ -372,7 +372,7 @@ def test_relative_extends_is_resolved_from_the_file(tmp_path, monkeypatch):
 
 
 def _sdss_text() -> str:
-    return (resources.files("models") / "presets" / "sdss-v.toml").read_text()
+    return (resources.files("rfp_twin.models") / "presets" / "sdss-v.toml").read_text()
 
 
 def test_spec_origin_names_the_preset_or_file(tmp_path):

@@ -6,8 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from models.errors import TrajectoryError
-from models.trajectory import Trajectory, simplify_exact
+from rfp_twin.models.errors import TrajectoryError
+from rfp_twin.models.trajectory import Trajectory, simplify_exact
 from tests.planners.conftest import make_geom, plan_random
 
 

@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.array import ArrayGeometry
-from models.kinematics import forward, inverse
-from models.layout import Layout
-from models.robot import load_spec
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.kinematics import forward, inverse
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
 
 DESI = load_spec("desi")
 SDSS = load_spec("sdss-v")

@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import pytest
 
-from models.array import ArrayGeometry
-from models.layout import Layout
-from models.robot import load_spec
-from twin.pipeline import PlanOptions
-from twin.pipeline import plan_random as _pipeline_plan_random
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.twin.pipeline import PlanOptions
+from rfp_twin.twin.pipeline import plan_random as _pipeline_plan_random
 
 
 def make_geom(n_positions: int = 37, buffer_mm: float = 2.0, preset: str = "sdss-v",
@@ -22,7 +22,7 @@ def plan_random(geom: ArrayGeometry, seed: int, resolve: bool = True, resolver: 
                 **options):
     """Seeded random targets (clear by the planner's MD) and a plan; returns (targets, plan).
 
-    The pipeline's own sequence (:func:`twin.pipeline.plan_random`). ``resolver`` is the
+    The pipeline's own sequence (:func:`rfp_twin.twin.pipeline.plan_random`). ``resolver`` is the
     deadlock resolution: these tests (and the golden masters) were written for target
     replacement, so that stays their default here; ``resolve=False`` stops after the
     first run.

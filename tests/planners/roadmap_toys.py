@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planners.roadmap import Arm, ArmTrajectory, RoadmapSettings
+from rfp_twin.planners.roadmap import Arm, ArmTrajectory, RoadmapSettings
 
 RNG = np.random.default_rng
 #: Two toy robots in the plane collide when their points are closer than this.

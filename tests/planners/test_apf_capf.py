@@ -4,20 +4,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.array import ArrayGeometry
-from models.errors import SpecError
-from models.kinematics import forward
-from models.layout import Layout
-from models.robot import load_spec
-from planners.apf import (ApfSettings, CapfSettings, plan_apf, plan_apf_reconfiguration,
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.kinematics import forward
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.planners.apf import (ApfSettings, CapfSettings, plan_apf, plan_apf_reconfiguration,
                           random_tip_configs)
-from validation.checker2d import check_trajectory
+from rfp_twin.validation.checker2d import check_trajectory
 
 SDSS = load_spec("sdss-v")
 DESI = load_spec("desi")
 
 # Seven SDSS-V robots (hex-7, pitch 22.4 mm, buffer 2.5 mm, segment model). Found by a
-# seeded search over 200 random problems (planners.targets.random_targets, seed 99),
+# seeded search over 200 random problems (rfp_twin.planners.targets.random_targets, seed 99),
 # rounded to 1e-3 deg. With the APF the centre robot (index 3) stalls 7.5 mm from its
 # target, blocked by robot 1, which itself stops 1.9 mm short of its own. With the
 # cooperative term robot 1 is pushed along robot 3's remaining error, steps past its

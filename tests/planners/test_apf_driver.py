@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.array import ArrayGeometry
-from models.errors import TargetError, UnknownRobotError
-from models.layout import Layout
-from planners.apf import (ApfSettings, apf_target_margin_mm, plan_apf, plan_apf_reconfiguration,
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import TargetError, UnknownRobotError
+from rfp_twin.models.layout import Layout
+from rfp_twin.planners.apf import (ApfSettings, apf_target_margin_mm, plan_apf, plan_apf_reconfiguration,
                           random_tip_configs)
-from planners.plan import DEADLOCKED, OFFLINE, REACHED
-from planners.targets import random_targets
+from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED
+from rfp_twin.planners.targets import random_targets
 from tests.planners.apf_cases import DESI, SDSS, angles_for, custom_geom, desi_geom
-from validation.checker2d import check_trajectory
+from rfp_twin.validation.checker2d import check_trajectory
 
 
 def test_start_errors_name_robots():

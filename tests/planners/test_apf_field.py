@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from models.geometry2d import pair_distances
-from planners.apf import ApfSettings, plan_apf
+from rfp_twin.models.geometry2d import pair_distances
+from rfp_twin.planners.apf import ApfSettings, plan_apf
 from tests.planners.apf_cases import DESI, SDSS, angles_for, custom_geom, tips
 
 #: One plain explicit Euler step: no implicit attraction, guard, band rules or saturation.

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from planners.apf import ApfSettings, plan_apf, random_tip_configs
+from rfp_twin.planners.apf import ApfSettings, plan_apf, random_tip_configs
 from tests.planners.apf_cases import DESI, angles_for, custom_geom, desi_geom, tips
 
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.errors import SpecError
-from models.trajectory import Trajectory
-from planners.apf import (ApfSettings, apf_plan, plan_apf, plan_apf_reconfiguration,
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.apf import (ApfSettings, apf_plan, plan_apf, plan_apf_reconfiguration,
                           random_tip_configs)
 from tests.planners.apf_cases import DESI, desi_geom
 

@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import pytest
 
-from models.array import ArrayGeometry
-from models.errors import SpecError
-from models.layout import Layout
-from planners.apf import ApfSettings, apf_target_margin_mm
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.layout import Layout
+from rfp_twin.planners.apf import ApfSettings, apf_target_margin_mm
 from tests.planners.apf_cases import DESI, SDSS, desi_geom
 
 

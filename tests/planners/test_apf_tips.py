@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.errors import SpecError, TargetError
-from planners.apf import random_tip_configs
+from rfp_twin.models.errors import SpecError, TargetError
+from rfp_twin.planners.apf import random_tip_configs
 from tests.planners.apf_cases import DESI, custom_geom, desi_geom, tips
 
 

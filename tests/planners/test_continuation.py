@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.kinematics import inverse
-from planners.continuation import ATTEMPTS, continue_groups
-from planners.stepwise import max_displacement
-from planners.stepwise.run import run_array
+from rfp_twin.models.kinematics import inverse
+from rfp_twin.planners.continuation import ATTEMPTS, continue_groups
+from rfp_twin.planners.stepwise import max_displacement
+from rfp_twin.planners.stepwise.run import run_array
 from tests.planners.conftest import make_geom
 
 STEP = 0.5

@@ -4,11 +4,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.array import ArrayGeometry
-from models.errors import TargetError, UnknownRobotError
-from models.layout import Layout
-from models.robot import load_spec
-from planners.offline import apply_offline
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import TargetError, UnknownRobotError
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.planners.offline import apply_offline
 
 SPEC = load_spec("sdss-v")
 

@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-import planners
+from rfp_twin import planners
 
 
 def test_every_exported_name_resolves():
@@ -20,7 +20,7 @@ def test_unknown_name_is_an_attribute_error():
 
 
 def test_importing_planners_compiles_nothing():
-    code = "import sys, planners; print([m for m in ('numba', 'scipy', 'toppra') if m in sys.modules])"
+    code = "import sys; from rfp_twin import planners; print([m for m in ('numba', 'scipy', 'toppra') if m in sys.modules])"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"

@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planners.postprocess.groups import assemble, group_offsets, time_and_simplify
-from planners.simplify import max_deviation
-from planners.smoothing import smooth_plan
-from planners.timing import pl_kinematics
+from rfp_twin.planners.postprocess.groups import assemble, group_offsets, time_and_simplify
+from rfp_twin.planners.simplify import max_deviation
+from rfp_twin.planners.smoothing import smooth_plan
+from rfp_twin.planners.timing import pl_kinematics
 from tests.planners.path_builders import A, CORNER, V, make_plan
 
 

@@ -9,16 +9,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.array import ArrayGeometry
-from models.errors import PlanningError, SpecError
-from models.layout import Layout
-from models.robot import load_spec
-from planners.plan import Plan
-from planners.postprocess import postprocess
-from planners.timing import pl_kinematics
-from models.trajectory import Trajectory
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import PlanningError, SpecError
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.planners.plan import Plan
+from rfp_twin.planners.postprocess import postprocess
+from rfp_twin.planners.timing import pl_kinematics
+from rfp_twin.models.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random
-from validation.checker2d import check_trajectory
+from rfp_twin.validation.checker2d import check_trajectory
 
 
 def assert_firmware_ready(traj: Trajectory, rep, plan: Plan, geom: ArrayGeometry,

@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from planners.postprocess import postprocess
+from rfp_twin.planners.postprocess import postprocess
 from tests.planners.conftest import make_geom, plan_random
-from validation.checker2d import check_trajectory
+from rfp_twin.validation.checker2d import check_trajectory
 
 
 def test_report_serialises_and_is_deterministic():

@@ -6,8 +6,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from models.trajectory import Trajectory
-from planners.postprocess.verification import (ClearanceLedger, repair, subset_trajectory,
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.postprocess.verification import (ClearanceLedger, repair, subset_trajectory,
                                                verify_neighbours)
 from tests.planners.conftest import make_geom
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planners.resolve_search.kernels import (moving_collisions, pair_conflict, reach_of,
+from rfp_twin.planners.resolve_search.kernels import (moving_collisions, pair_conflict, reach_of,
                                              segments_at, static_collisions)
 
 L_ALPHA, S0, S1 = 7.4, 0.0, 15.0

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.errors import SpecError
-from planners.resolve_search.paths import PathSet
+from rfp_twin.models.errors import SpecError
+from rfp_twin.planners.resolve_search.paths import PathSet
 
 
 def two_robots() -> PathSet:

@@ -1,21 +1,21 @@
 """Deadlock resolution that keeps targets (planners/resolve_search/resolve.py) and its
-fallbacks in the solver, checked by the independent 2D checker (validation.checker2d),
+fallbacks in the solver, checked by the independent 2D checker (rfp_twin.validation.checker2d),
 never by the planner itself."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from models.array import ArrayGeometry
-from models.kinematics import inverse
-from models.layout import Layout
-from models.robot import load_spec
-from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED
-from models.trajectory import Trajectory
-from planners.resolve_search import SearchResolveSettings
-from planners.solver import PlannerSettings, plan_reconfiguration
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.kinematics import inverse
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.resolve_search import SearchResolveSettings
+from rfp_twin.planners.solver import PlannerSettings, plan_reconfiguration
 from tests.planners.conftest import make_geom, plan_random
-from validation.checker2d import check_trajectory
+from rfp_twin.validation.checker2d import check_trajectory
 
 
 def assert_clear(geom: ArrayGeometry, plan) -> None:

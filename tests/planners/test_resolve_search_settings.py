@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import pytest
 
-from models.errors import SpecError
-from planners.resolve_search.settings import SearchResolveSettings
+from rfp_twin.models.errors import SpecError
+from rfp_twin.planners.resolve_search.settings import SearchResolveSettings
 
 
 @pytest.mark.parametrize("kwargs,field", [

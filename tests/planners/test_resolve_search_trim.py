@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.kinematics import inverse
-from planners.resolve_search.paths import PathSet
-from planners.resolve_search.trim import trim_tails
-from planners.stepwise import max_displacement
+from rfp_twin.models.kinematics import inverse
+from rfp_twin.planners.resolve_search.paths import PathSet
+from rfp_twin.planners.resolve_search.trim import trim_tails
+from rfp_twin.planners.stepwise import max_displacement
 from tests.planners.conftest import make_geom
 
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.kinematics import inverse
-from planners.resolve_search.paths import PathSet
-from planners.resolve_search.world import AlphaBetaWorld
-from planners.stepwise import max_displacement
+from rfp_twin.models.kinematics import inverse
+from rfp_twin.planners.resolve_search.paths import PathSet
+from rfp_twin.planners.resolve_search.world import AlphaBetaWorld
+from rfp_twin.planners.stepwise import max_displacement
 from tests.planners.conftest import make_geom
 
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.errors import SpecError
-from planners.roadmap import ArmTrajectory, RoadmapSettings
+from rfp_twin.models.errors import SpecError
+from rfp_twin.planners.roadmap import ArmTrajectory, RoadmapSettings
 
 
 @pytest.mark.parametrize("kw,field", [({"dt": 0.0}, "dt"), ({"dt": 1.0, "dt_col": 0.3}, "dt_col"),

@@ -1,22 +1,22 @@
 """Sabater's prioritized planner on whole arrays (planners/roadmap_array.py), checked by the
-independent 2D checker (validation.checker2d), never by the planner itself."""
+independent 2D checker (rfp_twin.validation.checker2d), never by the planner itself."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from models.array import ArrayGeometry
-from models.errors import SpecError
-from models.layout import Layout
-from models.robot import load_spec
-from planners.plan import REACHED
-from planners.resolve_search import SearchResolveSettings
-from planners.roadmap_array import roadmap_pass, travel_priority
-from planners.solver import PlannerSettings, plan_reconfiguration
-from planners.stepwise import max_displacement
-from models.trajectory import Trajectory
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.planners.plan import REACHED
+from rfp_twin.planners.resolve_search import SearchResolveSettings
+from rfp_twin.planners.roadmap_array import roadmap_pass, travel_priority
+from rfp_twin.planners.solver import PlannerSettings, plan_reconfiguration
+from rfp_twin.planners.stepwise import max_displacement
+from rfp_twin.models.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random
-from validation.checker2d import check_trajectory
+from rfp_twin.validation.checker2d import check_trajectory
 
 
 def assert_clear(geom: ArrayGeometry, plan) -> None:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planners.roadmap import RoadmapSettings, build_roadmap, edge_time
+from rfp_twin.planners.roadmap import RoadmapSettings, build_roadmap, edge_time
 from tests.planners.roadmap_toys import RNG, plane_arm
 
 

@@ -7,8 +7,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from models.errors import SpecError
-from planners.roadmap import Arm, RoadmapSettings, goal_clear_after, plan_arm
+from rfp_twin.models.errors import SpecError
+from rfp_twin.planners.roadmap import Arm, RoadmapSettings, goal_clear_after, plan_arm
 from tests.planners.roadmap_toys import (R_TOY, RNG, direct_only, line_arm, min_distance, never,
                                          plane_arm, region, toy_world)
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planners.roadmap import RoadmapSettings, plan_arm
-from planners.roadmap.search import _neighbour_actions
+from rfp_twin.planners.roadmap import RoadmapSettings, plan_arm
+from rfp_twin.planners.roadmap.search import _neighbour_actions
 from tests.planners.roadmap_toys import (RNG, actions, direct_only, fig10_world, line_arm, region,
                                          union, vertex_trap)
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planners.roadmap import RoadmapSettings, plan_arm
+from rfp_twin.planners.roadmap import RoadmapSettings, plan_arm
 from tests.planners.roadmap_toys import (RNG, actions, direct_only, fig10_world, line_arm, region,
                                          vertex_trap)
 

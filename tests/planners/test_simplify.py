@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.errors import SpecError
-from planners.simplify import (max_deviation, rdp_mask, simplify_axis, simplify_columns,
+from rfp_twin.models.errors import SpecError
+from rfp_twin.planners.simplify import (max_deviation, rdp_mask, simplify_axis, simplify_columns,
                                simplify_plan)
-from planners.timing import pl_kinematics
+from rfp_twin.planners.timing import pl_kinematics
 from tests.planners.conftest import make_geom, plan_random
 from tests.planners.path_builders import make_plan
 

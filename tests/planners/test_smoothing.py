@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.errors import SpecError
-from models.robot import load_spec
-from planners.smoothing import plan_deviation, smooth_plan, window_for_limits
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.robot import load_spec
+from rfp_twin.planners.smoothing import plan_deviation, smooth_plan, window_for_limits
 from tests.planners.conftest import make_geom, plan_random
 from tests.planners.path_builders import CORNER, make_plan
 

@@ -1,19 +1,19 @@
 """Reverse/forward GC and MC planning: the behaviours Sayres 2021 reports, checked by the
-independent 2D checker (validation.checker2d), never by the planner itself."""
+independent 2D checker (rfp_twin.validation.checker2d), never by the planner itself."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from models.array import ArrayGeometry
-from models.errors import SpecError, TargetError, UnknownRobotError
-from models.layout import Layout
-from models.robot import load_spec
-from planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED
-from planners.solver import PlannerSettings, deadlocked_groups, plan_reconfiguration
-from models.trajectory import Trajectory
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import SpecError, TargetError, UnknownRobotError
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED
+from rfp_twin.planners.solver import PlannerSettings, deadlocked_groups, plan_reconfiguration
+from rfp_twin.models.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random
-from validation.checker2d import check_trajectory
+from rfp_twin.validation.checker2d import check_trajectory
 
 
 def assert_clear(geom: ArrayGeometry, plan) -> None:
@@ -129,7 +129,7 @@ def test_offline_robot_never_moves_and_others_avoid_it():
     centre = int(geom.robot_ids[np.argmin(np.hypot(*geom.base_xy.T))])
     parked = (90.0, 60.0)            # half stretched: an obstacle, yet clear of folded neighbours
     rng = np.random.default_rng(3)
-    from planners.targets import random_targets
+    from rfp_twin.planners.targets import random_targets
     fixed = geom.robot_ids == centre
     init = np.zeros((geom.n_robots, 2))
     init[fixed] = parked

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy.stats import chi2_contingency
 
-from planners.stepwise.kernel import run_stepwise
-from planners.stepwise.moves import max_displacement
+from rfp_twin.planners.stepwise.kernel import run_stepwise
+from rfp_twin.planners.stepwise.moves import max_displacement
 
 STEP = 0.1
 LIMITS = np.array([0.0, 360.0, 0.0, 180.0])

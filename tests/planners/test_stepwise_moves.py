@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from planners.stepwise.moves import _rot, _toward, max_displacement
+from rfp_twin.planners.stepwise.moves import _rot, _toward, max_displacement
 
 L_ALPHA, L_BETA = 7.4, 15.0
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planners.plan import build_paths
-from planners.stepwise import ANGLE_EPS, max_displacement
-from planners.stepwise.run import run_array
-from planners.targets import random_targets
+from rfp_twin.planners.plan import build_paths
+from rfp_twin.planners.stepwise import ANGLE_EPS, max_displacement
+from rfp_twin.planners.stepwise.run import run_array
+from rfp_twin.planners.targets import random_targets
 from tests.planners.conftest import make_geom
 
 

@@ -4,12 +4,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.array import ArrayGeometry
-from models.errors import TargetError
-from models.kinematics import forward
-from models.layout import Layout
-from models.robot import load_spec
-from planners.targets import check_angles, check_targets, random_targets
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import TargetError
+from rfp_twin.models.kinematics import forward
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.planners.targets import check_angles, check_targets, random_targets
 from tests.planners.conftest import make_geom
 
 

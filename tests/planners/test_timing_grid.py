@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planners.smoothing import smooth_plan
-from planners.timing import STRAIGHT_STEPS, group_grid, time_group
+from rfp_twin.planners.smoothing import smooth_plan
+from rfp_twin.planners.timing import STRAIGHT_STEPS, group_grid, time_group
 from tests.planners.path_builders import A, CORNER, V, make_plan, real_groups
 
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.errors import SpecError
-from planners.smoothing import smooth_plan
-from planners.timing import interaction_groups, interaction_pairs, time_group
+from rfp_twin.models.errors import SpecError
+from rfp_twin.planners.smoothing import smooth_plan
+from rfp_twin.planners.timing import interaction_groups, interaction_pairs, time_group
 from tests.planners.conftest import make_geom, plan_random
 from tests.planners.path_builders import A, CORNER, V, numeric_kinematics, real_groups
 

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.geometry2d import pair_distances
-from planners.timing import interaction_groups, interaction_pairs
+from rfp_twin.models.geometry2d import pair_distances
+from rfp_twin.planners.timing import interaction_groups, interaction_pairs
 from tests.planners.conftest import make_geom, plan_random
 
 

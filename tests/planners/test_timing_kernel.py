@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planners.timing.kernel import law_excess, topp, topp_kernel
+from rfp_twin.planners.timing.kernel import law_excess, topp, topp_kernel
 from tests.planners.path_builders import A, V
 
 

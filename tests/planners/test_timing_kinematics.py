@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planners.timing import pl_kinematics
+from rfp_twin.planners.timing import pl_kinematics
 
 
 def test_pl_kinematics_three_point_definition():

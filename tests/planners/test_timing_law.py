@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planners.smoothing import smooth_plan
-from planners.timing import DEFAULT_BACKEND, TimeLaw, time_group
-from planners.timing.law import law_times
+from rfp_twin.planners.smoothing import smooth_plan
+from rfp_twin.planners.timing import DEFAULT_BACKEND, TimeLaw, time_group
+from rfp_twin.planners.timing.law import law_times
 from tests.planners.path_builders import A, CORNER, V
 
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.layout import Layout
-from models.trajectory import Trajectory
-from twin.sim import simulate
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.sim import simulate
 
 #: The SDSS-V folded configuration (alpha, beta), deg.
 FOLD = (10.0, 170.0)
@@ -52,6 +52,6 @@ def swing_trajectory(layout: Layout) -> tuple[int, Trajectory]:
 
 def colliding_run(twin):
     """(trajectory, SimReport with its record) of :func:`colliding_trajectory` on ``twin``
-    (a :class:`models.mjcf.TwinModel`)."""
+    (a :class:`rfp_twin.models.mjcf.TwinModel`)."""
     traj = colliding_trajectory(twin.layout)
     return traj, simulate(twin, traj)

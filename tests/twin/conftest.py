@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import pytest
 
-from models.layout import Layout
-from models.mjcf import build_model
-from models.robot import load_spec
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.mjcf import build_model
+from rfp_twin.models.robot import load_spec
 
 
 @pytest.fixture(scope="module")

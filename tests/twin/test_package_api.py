@@ -5,7 +5,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
-import twin
+from rfp_twin import twin
 
 
 def test_every_exported_name_resolves():
@@ -14,7 +14,7 @@ def test_every_exported_name_resolves():
 
 
 def test_importing_twin_stays_light():
-    code = ("import sys, twin; heavy = [m for m in ('mujoco', 'numba', 'fcl', 'toppra', 'dask') "
+    code = ("import sys; from rfp_twin import twin; heavy = [m for m in ('mujoco', 'numba', 'fcl', 'toppra', 'dask') "
             "if m in sys.modules]; print(heavy)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr

@@ -6,13 +6,13 @@ import json
 import numpy as np
 import pytest
 
-from models.errors import RfpError
-from models.layout import Layout
-from models.robot import load_spec
-from models.trajectory import Trajectory
-from planners.timing import pl_kinematics
-from twin.pipeline import PlanOptions, Reconfiguration, folded_clearance_error, plan_random
-from validation.checker2d import check_trajectory
+from rfp_twin.models.errors import RfpError
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.timing import pl_kinematics
+from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration, folded_clearance_error, plan_random
+from rfp_twin.validation.checker2d import check_trajectory
 
 
 def small(options: PlanOptions | None = None, n: int = 19, buffer_mm: float = 2.0, **kw):
@@ -99,7 +99,7 @@ def test_options_check_ranges_before_anything_runs():
 
 def test_folded_clearance_error_names_an_infeasible_design():
     spec = load_spec("sdss-v").with_overrides(buffer_mm=2.0)
-    from models.array import ArrayGeometry
+    from rfp_twin.models.array import ArrayGeometry
 
     ok = ArrayGeometry(spec, Layout.hex_grid_positions(7, spec.pitch_mm), 2.0)
     assert folded_clearance_error(ok) is None

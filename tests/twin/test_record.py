@@ -1,4 +1,4 @@
-"""Tests of twin.record: a Rerun .rrd of a run that `rerun rrd verify` accepts and that
+"""Tests of rfp_twin.twin.record: a Rerun .rrd of a run that `rerun rrd verify` accepts and that
 holds the arm poses over time, the fiber traces and the contacts."""
 from __future__ import annotations
 
@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from rerun.chunk import RrdReader
 
-from models.trajectory import Trajectory
-from twin.record import RecordError, RecordSettings, record_run
-from twin.sim import simulate
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.record import RecordError, RecordSettings, record_run
+from rfp_twin.twin.sim import simulate
 from tests.twin.builders import centre_robot, colliding_run, moves_trajectory
 
 

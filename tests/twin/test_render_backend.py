@@ -1,4 +1,4 @@
-"""Tests of twin.render.backend: the offscreen OpenGL backend (EGL, else OSMesa) is chosen
+"""Tests of rfp_twin.twin.render.backend: the offscreen OpenGL backend (EGL, else OSMesa) is chosen
 before mujoco is imported, falls back in order, and fails with a clear message.
 
 Nothing is skipped: on a machine where neither EGL nor OSMesa works, the first test fails
@@ -13,14 +13,14 @@ from pathlib import Path
 
 import pytest
 
-import twin.render as render  # first: picks MUJOCO_GL before mujoco is imported here
-from twin.render import RenderError, RenderSettings, render_frame
+import rfp_twin.twin.render as render  # first: picks MUJOCO_GL before mujoco is imported here
+from rfp_twin.twin.render import RenderError, RenderSettings, render_frame
 
 ROOT = Path(__file__).resolve().parents[2]
 
 #: Python lines that render a 64x48 frame of the 7-robot grid as ``img`` (module ``r``).
-RENDER_7 = ("from models.layout import Layout\nfrom models.robot import load_spec\n"
-            "from models.mjcf import build_model\nimport twin.render as r\n"
+RENDER_7 = ("from rfp_twin.models.layout import Layout\nfrom rfp_twin.models.robot import load_spec\n"
+            "from rfp_twin.models.mjcf import build_model\nimport rfp_twin.twin.render as r\n"
             "spec = load_spec('sdss-v')\n"
             "img = r.render_frame(build_model(spec, Layout.hex_grid(1, spec.pitch_mm)),\n"
             "                     settings=r.RenderSettings(width=64, height=48))\n")
@@ -51,7 +51,7 @@ def test_an_offscreen_backend_works(twin7):
 
 
 def test_backend_is_chosen_in_a_fresh_process_before_mujoco_is_imported():
-    out = run_python("import os, twin.render as r, mujoco\n"
+    out = run_python("import os, rfp_twin.twin.render as r, mujoco\n"
                      "from mujoco.rendering.classic import gl_context as g\n"
                      "print(r.BACKEND, os.environ['MUJOCO_GL'], g._MUJOCO_GL)\n")
     chosen, env_gl, mujoco_gl = out.split()
@@ -61,7 +61,7 @@ def test_backend_is_chosen_in_a_fresh_process_before_mujoco_is_imported():
 def test_importing_any_render_module_chooses_the_backend_first():
     """A render module that imports mujoco (frames) runs the package first, which picks
     the backend first."""
-    out = run_python("import os\nimport twin.render.frames\n"
+    out = run_python("import os\nimport rfp_twin.twin.render.frames\n"
                      "from mujoco.rendering.classic import gl_context as g\n"
                      "print(os.environ['MUJOCO_GL'], g._MUJOCO_GL)\n")
     env_gl, mujoco_gl = out.split()
@@ -74,7 +74,7 @@ def test_rendering_works_even_if_mujoco_was_imported_first():
 
 
 def test_selection_falls_back_to_the_next_backend_and_osmesa_renders():
-    out = run_python("import os, twin.render as r\n"
+    out = run_python("import os, rfp_twin.twin.render as r\n"
                      "os.environ.pop('MUJOCO_GL'); os.environ.pop('PYOPENGL_PLATFORM', None)\n"
                      "print(r.select_gl_backend(('no-such-backend', 'osmesa')))\n")
     assert out.split()[-1] == "osmesa"
@@ -84,7 +84,7 @@ def test_selection_falls_back_to_the_next_backend_and_osmesa_renders():
 
 
 def test_no_working_backend_is_a_clear_error():
-    out = run_python("import os, twin.render as r\n"
+    out = run_python("import os, rfp_twin.twin.render as r\n"
                      "os.environ.pop('MUJOCO_GL'); os.environ.pop('PYOPENGL_PLATFORM', None)\n"
                      "try:\n    r.select_gl_backend(('bad1', 'bad2'))\n"
                      "except r.RenderError as e:\n    print('ERR', e)\n")

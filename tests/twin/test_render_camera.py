@@ -1,18 +1,18 @@
-"""Tests of twin.render.camera: a fitted camera frames the whole grid, centred; lean
+"""Tests of rfp_twin.twin.render.camera: a fitted camera frames the whole grid, centred; lean
 renders re-mesh round parts with as few facets as keep them round on screen; the render
 model is a copy (the twin is never changed)."""
 from __future__ import annotations
 
 import math
 
-import twin.render  # noqa: F401, I001  (first: picks MUJOCO_GL before mujoco is imported)
+import rfp_twin.twin.render  # noqa: F401, I001  (first: picks MUJOCO_GL before mujoco is imported)
 
 import mujoco
 import numpy as np
 import pytest
 
-from twin.render import RenderSettings
-from twin.render.camera import (FIT_MARGIN, LEAN_MIN_SECTIONS, LEAN_SAGITTA_PX, fitted_camera,
+from rfp_twin.twin.render import RenderSettings
+from rfp_twin.twin.render.camera import (FIT_MARGIN, LEAN_MIN_SECTIONS, LEAN_SAGITTA_PX, fitted_camera,
                                 focal_px, lean_circle_sections, render_model)
 
 

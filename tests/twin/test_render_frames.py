@@ -1,14 +1,14 @@
-"""Tests of twin.render.frames: offscreen frames of a small grid show the robots where
+"""Tests of rfp_twin.twin.render.frames: offscreen frames of a small grid show the robots where
 their angles put them, coloured by state, with every camera and quality setting."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-import twin.render  # noqa: F401  (first: picks MUJOCO_GL before mujoco is imported)
-from twin.render import (ALPHA_SHADE, ARRIVED, CONTACT, MOVING, STATE_RGBA, WAITING,
+import rfp_twin.twin.render  # noqa: F401  (first: picks MUJOCO_GL before mujoco is imported)
+from rfp_twin.twin.render import (ALPHA_SHADE, ARRIVED, CONTACT, MOVING, STATE_RGBA, WAITING,
                          FrameRenderer, RenderError, RenderSettings, render_frame)
-from twin.render.frames import state_palette
+from rfp_twin.twin.render.frames import state_palette
 
 
 def _beta_midpoints(fr: FrameRenderer) -> np.ndarray:

@@ -1,11 +1,11 @@
-"""Tests of twin.render.report: frame rates from the timings, and the JSON-ready summary."""
+"""Tests of rfp_twin.twin.render.report: frame rates from the timings, and the JSON-ready summary."""
 from __future__ import annotations
 
 import json
 import math
 from pathlib import Path
 
-from twin.render import RenderReport
+from rfp_twin.twin.render import RenderReport
 
 
 def _report(render_s: float, total_s: float) -> RenderReport:

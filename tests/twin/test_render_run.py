@@ -1,4 +1,4 @@
-"""Tests of twin.render.run: a whole run to an MP4 with the expected frames, simulated
+"""Tests of rfp_twin.twin.render.run: a whole run to an MP4 with the expected frames, simulated
 when no report is given, and nothing left behind on failure."""
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import math
 import imageio.v2 as iio2
 import pytest
 
-import twin.render as render  # first: picks MUJOCO_GL before mujoco is imported here
-from twin.render import RenderError, RenderSettings, render_run
-from twin.sim import simulate
+import rfp_twin.twin.render as render  # first: picks MUJOCO_GL before mujoco is imported here
+from rfp_twin.twin.render import RenderError, RenderSettings, render_run
+from rfp_twin.twin.sim import simulate
 from tests.twin.builders import colliding_run, swing_trajectory
 
 

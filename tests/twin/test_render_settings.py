@@ -1,4 +1,4 @@
-"""Tests of twin.render.settings: render settings are checked field by field, with
+"""Tests of rfp_twin.twin.render.settings: render settings are checked field by field, with
 one-line errors, and give the simulated time between frames."""
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from twin.render import RenderError, RenderSettings
+from rfp_twin.twin.render import RenderError, RenderSettings
 
 
 @pytest.mark.parametrize("kwargs, message", [

@@ -1,4 +1,4 @@
-"""Tests of twin.render.timeline: frame times at fps and speed-up, and the robot states
+"""Tests of rfp_twin.twin.render.timeline: frame times at fps and speed-up, and the robot states
 (moving, arrived, contact) of each frame of a simulated run."""
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-import twin.render  # noqa: F401  (first: picks MUJOCO_GL before mujoco is imported)
-from twin.render import (ARRIVED, CONTACT, MOVING, WAITING, RenderError, RenderSettings,
+import rfp_twin.twin.render  # noqa: F401  (first: picks MUJOCO_GL before mujoco is imported)
+from rfp_twin.twin.render import (ARRIVED, CONTACT, MOVING, WAITING, RenderError, RenderSettings,
                          frame_timeline, frame_times)
-from twin.sim import simulate
+from rfp_twin.twin.sim import simulate
 from tests.twin.builders import centre_robot, colliding_run, moves_trajectory
 
 

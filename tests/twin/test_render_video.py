@@ -1,4 +1,4 @@
-"""Tests of twin.render.video: frames encoded to an MP4 that reads back frame for frame,
+"""Tests of rfp_twin.twin.render.video: frames encoded to an MP4 that reads back frame for frame,
 PNGs that read back pixel for pixel, and no partial file on failure."""
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from twin.render import Mp4Writer, RenderError, save_png
+from rfp_twin.twin.render import Mp4Writer, RenderError, save_png
 
 
 def _frames(n: int, h: int = 48, w: int = 64) -> list[np.ndarray]:

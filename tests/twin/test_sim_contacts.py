@@ -1,4 +1,4 @@
-"""Tests of twin.sim.contacts: a hand-built colliding trajectory makes contacts between
+"""Tests of rfp_twin.twin.sim.contacts: a hand-built colliding trajectory makes contacts between
 exactly the robots that collide (or the robot and the fiducial it hits), and the contact
 log summarises them per pair."""
 from __future__ import annotations
@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.layout import Layout
-from models.mjcf import build_model
-from models.robot import load_spec
-from twin.sim import ContactLog, simulate
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.mjcf import build_model
+from rfp_twin.models.robot import load_spec
+from rfp_twin.twin.sim import ContactLog, simulate
 from tests.twin.builders import centre_robot, colliding_trajectory, right_neighbour
 
 

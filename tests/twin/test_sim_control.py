@@ -1,14 +1,14 @@
-"""Tests of twin.sim.control: the nominal and commanded angles (faults applied), the servo
+"""Tests of rfp_twin.twin.sim.control: the nominal and commanded angles (faults applied), the servo
 targets with their velocity feed-forward, and the tracking-error accounting."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from models.errors import TrajectoryError
-from models.trajectory import Trajectory
-from twin.sim import EncoderOffset, Simulator, Slow, Stuck
-from twin.sim.control import Commands, TrackingError, feedforward_gains, fiber_error_mm
+from rfp_twin.models.errors import TrajectoryError
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.sim import EncoderOffset, Simulator, Slow, Stuck
+from rfp_twin.twin.sim.control import Commands, TrackingError, feedforward_gains, fiber_error_mm
 from tests.twin.builders import FOLD, swing_trajectory
 
 

@@ -1,4 +1,4 @@
-"""Tests of twin.sim.faults: faults show as the tracking errors they should (a stuck
+"""Tests of rfp_twin.twin.sim.faults: faults show as the tracking errors they should (a stuck
 robot's error grows, a slow robot lags, an encoder offset is a constant error), combine
 per robot, and are checked."""
 from __future__ import annotations
@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.errors import TrajectoryError, UnknownRobotError
-from twin.sim import EncoderOffset, SimSettings, Simulator, Slow, Stuck, simulate
-from twin.sim.faults import fault_effects
+from rfp_twin.models.errors import TrajectoryError, UnknownRobotError
+from rfp_twin.twin.sim import EncoderOffset, SimSettings, Simulator, Slow, Stuck, simulate
+from rfp_twin.twin.sim.faults import fault_effects
 from tests.twin.builders import swing_trajectory
 
 

@@ -1,4 +1,4 @@
-"""Tests of twin.sim.report: the report of a run as JSON, a terminal table, per-robot
+"""Tests of rfp_twin.twin.sim.report: the report of a run as JSON, a terminal table, per-robot
 errors and the sampled record."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from models.errors import RfpError, UnknownRobotError
-from twin.sim import SimSettings, simulate
+from rfp_twin.models.errors import RfpError, UnknownRobotError
+from rfp_twin.twin.sim import SimSettings, simulate
 from tests.twin.builders import colliding_trajectory, swing_trajectory
 
 

@@ -1,4 +1,4 @@
-"""Tests of twin.sim.simulator: a checked collision-free plan makes no contact in 3D and
+"""Tests of rfp_twin.twin.sim.simulator: a checked collision-free plan makes no contact in 3D and
 the servos track it; partial trajectories, callbacks, durations and settings."""
 from __future__ import annotations
 
@@ -6,11 +6,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from models.errors import TrajectoryError
-from models.mjcf import build_model
-from models.trajectory import Trajectory
+from rfp_twin.models.errors import TrajectoryError
+from rfp_twin.models.mjcf import build_model
+from rfp_twin.models.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random
-from twin.sim import SimSettings, Simulator, mujoco_warnings, simulate
+from rfp_twin.twin.sim import SimSettings, Simulator, mujoco_warnings, simulate
 from tests.twin.builders import FOLD, centre_robot
 
 

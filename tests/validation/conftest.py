@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models.layout import Layout
-from models.robot import load_spec
-from models.trajectory import Trajectory
-from validation.numerics import segment_distance_np
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.validation.numerics import segment_distance_np
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = load_spec("sdss-v")
@@ -75,15 +75,15 @@ def brute_distances(traj: Trajectory, layout: Layout, times, a: int, b: int | No
 @functools.lru_cache(maxsize=None)
 def sdss_geometry():
     """The SDSS-V preset's meshes (built once)."""
-    from models.geometry import geometry_for_spec
+    from rfp_twin.models.geometry import geometry_for_spec
 
     return geometry_for_spec(SPEC)
 
 
 @functools.lru_cache(maxsize=None)
 def sdss_models():
-    """:class:`validation.mesh3d.LinkModels` of the SDSS-V meshes (built once)."""
-    from validation.mesh3d import LinkModels
+    """:class:`rfp_twin.validation.mesh3d.LinkModels` of the SDSS-V meshes (built once)."""
+    from rfp_twin.validation.mesh3d import LinkModels
 
     return LinkModels.from_geometry(sdss_geometry())
 
@@ -129,6 +129,6 @@ SMALL = dict(n_samples=4096, n_draws=40, n_scatter=200, mc_rounds=6, seed=3)
 @pytest.fixture(scope="session")
 def cal():
     """One small buffer calibration of the SDSS-V preset, shared by the buffer tests."""
-    from validation.buffer import calibrate_buffer
+    from rfp_twin.validation.buffer import calibrate_buffer
 
     return calibrate_buffer(SPEC, sdss_geometry(), **SMALL)

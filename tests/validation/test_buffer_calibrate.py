@@ -12,10 +12,10 @@ import math
 import numpy as np
 import pytest
 
-from models.errors import SpecError
+from rfp_twin.models.errors import SpecError
 from tests.validation.conftest import SMALL, SPEC, sdss_geometry, sdss_models
-from validation.buffer import calibrate_buffer, pair_segment_distances
-from validation.mesh3d import RobotPair
+from rfp_twin.validation.buffer import calibrate_buffer, pair_segment_distances
+from rfp_twin.validation.mesh3d import RobotPair
 
 GEOM = sdss_geometry()
 

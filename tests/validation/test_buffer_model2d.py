@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from models.robot import load_spec
+from rfp_twin.models.robot import load_spec
 from tests.validation.conftest import SPEC
-from validation.buffer import pair_segment_distances
-from validation.buffer.model2d import required_buffer
-from validation.numerics import segment_distance_np
+from rfp_twin.validation.buffer import pair_segment_distances
+from rfp_twin.validation.buffer.model2d import required_buffer
+from rfp_twin.validation.numerics import segment_distance_np
 
 
 def test_pair_segment_distances_match_the_2d_checker_segments():

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from validation.buffer.montecarlo import ErrorBuffer, corner_errors, error_buffers
+from rfp_twin.validation.buffer.montecarlo import ErrorBuffer, corner_errors, error_buffers
 
 
 def required(ang, dir_idx):

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.layout import Layout
+from rfp_twin.models.layout import Layout
 from tests.validation.conftest import SPEC
-from validation.buffer import neighbour_directions
-from validation.buffer.sampling import climb, distinct_top, uniform_configurations
+from rfp_twin.validation.buffer import neighbour_directions
+from rfp_twin.validation.buffer.sampling import climb, distinct_top, uniform_configurations
 
 
 def test_neighbour_directions_of_hex_and_real_layouts():

@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from validation.buffer import write_report
+from rfp_twin.validation.buffer import write_report
 
 
 def test_report_files(cal, tmp_path):

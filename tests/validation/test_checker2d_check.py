@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from models.errors import SpecError, TrajectoryError, UnknownRobotError
-from models.layout import Layout
-from models.trajectory import Trajectory
+from rfp_twin.models.errors import SpecError, TrajectoryError, UnknownRobotError
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.trajectory import Trajectory
 from tests.validation.conftest import SPEC, pair_layout, python_lines, swing
-from validation.checker2d import check_trajectory
+from rfp_twin.validation.checker2d import check_trajectory
 
 BUF = 2.5
 THR = 2 * BUF
@@ -68,10 +68,9 @@ def test_static_folded_grid_clearance_is_analytic():
 
 # -- independence -------------------------------------------------------------------
 def test_checker_imports_no_planner_algorithm_and_no_planner_geometry():
-    code = ("import validation.checker2d, sys; "
-            "print([m for m in sys.modules if m.startswith('planners') "
-            "and m != 'models.trajectory' and m != 'planners']); "
-            "print('models.geometry2d' in sys.modules); "
+    code = ("import rfp_twin.validation.checker2d, sys; "
+            "print([m for m in sys.modules if m.startswith('rfp_twin.planners')]); "
+            "print('rfp_twin.models.geometry2d' in sys.modules); "
             "print(sorted({m.split('.')[0] for m in sys.modules} & {'fcl', 'trimesh'}))")
     # no planner module, no planner geometry, and light: no FCL, no meshes
     assert python_lines(code)[-3:] == ["[]", "False", "[]"]

@@ -11,10 +11,10 @@ import math
 import numpy as np
 import pytest
 
-from models.trajectory import Trajectory
+from rfp_twin.models.trajectory import Trajectory
 from tests.validation.conftest import SPEC, brute_distances, pair_layout, swing
-from validation.checker2d import check_trajectory, coarse_grid
-from validation.checker2d.kernel import MAX_COARSE, n_intervals
+from rfp_twin.validation.checker2d import check_trajectory, coarse_grid
+from rfp_twin.validation.checker2d.kernel import MAX_COARSE, n_intervals
 
 BUF = 2.5
 THR = 2 * BUF

@@ -5,9 +5,9 @@ import json
 
 import numpy as np
 
-from models.trajectory import Trajectory
+from rfp_twin.models.trajectory import Trajectory
 from tests.validation.conftest import SPEC, pair_layout, swing
-from validation.checker2d import CheckReport, Collision, check_trajectory
+from rfp_twin.validation.checker2d import CheckReport, Collision, check_trajectory
 
 BUF = 2.5
 

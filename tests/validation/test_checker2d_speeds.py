@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from models.errors import SpecError
-from models.trajectory import Trajectory
+from rfp_twin.models.errors import SpecError
+from rfp_twin.models.trajectory import Trajectory
 from tests.validation.conftest import SPEC, swing
-from validation.checker2d import coarse_grid, speed_bounds_mm_s
+from rfp_twin.validation.checker2d import coarse_grid, speed_bounds_mm_s
 
 BUF = 2.5
 

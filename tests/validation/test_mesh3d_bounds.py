@@ -5,11 +5,11 @@ import math
 
 import numpy as np
 
-from models.geometry import LINKS
+from rfp_twin.models.geometry import LINKS
 from tests.validation.conftest import sdss_geometry, sdss_models, whole_link_distance
-from validation.mesh3d import link_pose
-from validation.mesh3d.bounds import link_bound, poly_lower_bound, store_pose_bounds
-from validation.numerics import segment_distance_np
+from rfp_twin.validation.mesh3d import link_pose
+from rfp_twin.validation.mesh3d.bounds import link_bound, poly_lower_bound, store_pose_bounds
+from rfp_twin.validation.numerics import segment_distance_np
 
 
 def _polygon_distance(p, q) -> float:

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from tests.validation.conftest import pair_layout, sdss_models, swing
-from validation.mesh3d.broadphase import bound_at, capsule_min, capsule_suspects
-from validation.mesh3d.check import TIGHT_MM
-from validation.mesh3d.scene import Scene
-from validation.numerics import axis_csr, time_span
+from rfp_twin.validation.mesh3d.broadphase import bound_at, capsule_min, capsule_suspects
+from rfp_twin.validation.mesh3d.check import TIGHT_MM
+from rfp_twin.validation.mesh3d.scene import Scene
+from rfp_twin.validation.numerics import axis_csr, time_span
 
 MODELS = sdss_models()
 THR, TOL, REL, RES, COARSE = 0.0, 0.01, 0.05, 1e-5, 4.0

@@ -13,13 +13,13 @@ import math
 import numpy as np
 import pytest
 
-from models.errors import SpecError, TrajectoryError, UnknownRobotError
-from models.geometry import load_geometry
-from models.trajectory import Trajectory
+from rfp_twin.models.errors import SpecError, TrajectoryError, UnknownRobotError
+from rfp_twin.models.geometry import load_geometry
+from rfp_twin.models.trajectory import Trajectory
 from tests.validation.conftest import (SPEC, pair_layout, sdss_geometry, sdss_models, static,
                                        swing, whole_link_distance)
-from validation.checker2d import check_trajectory
-from validation.mesh3d import validate_trajectory
+from rfp_twin.validation.checker2d import check_trajectory
+from rfp_twin.validation.mesh3d import validate_trajectory
 
 GEOM = sdss_geometry()
 MODELS = sdss_models()

@@ -5,11 +5,11 @@ import fcl
 import numpy as np
 import pytest
 
-from models.geometry import LINKS
+from rfp_twin.models.geometry import LINKS
 from tests.validation.conftest import PITCH, sdss_geometry, sdss_models, whole_link_distance
-from validation.mesh3d import link_pose
-from validation.mesh3d.exact import ExactDistance
-from validation.mesh3d.pair import _pair_piece_bounds
+from rfp_twin.validation.mesh3d import link_pose
+from rfp_twin.validation.mesh3d.exact import ExactDistance
+from rfp_twin.validation.mesh3d.pair import _pair_piece_bounds
 
 MODELS = sdss_models()
 

@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from models.geometry import LINKS
+from rfp_twin.models.geometry import LINKS
 from tests.validation.conftest import sdss_geometry, sdss_models
-from validation.mesh3d import fit_capsule, link_pose
-from validation.numerics import segment_distance_np
+from rfp_twin.validation.mesh3d import fit_capsule, link_pose
+from rfp_twin.validation.numerics import segment_distance_np
 
 GEOM = sdss_geometry()
 MODELS = sdss_models()

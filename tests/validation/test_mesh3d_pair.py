@@ -6,10 +6,10 @@ import math
 import numpy as np
 import trimesh
 
-from models.geometry import load_geometry
+from rfp_twin.models.geometry import load_geometry
 from tests.validation.conftest import SPEC, sdss_models
-from validation.mesh3d import LinkModels, RobotPair
-from validation.numerics import segment_distance_np
+from rfp_twin.validation.mesh3d import LinkModels, RobotPair
+from rfp_twin.validation.numerics import segment_distance_np
 
 MODELS = sdss_models()
 

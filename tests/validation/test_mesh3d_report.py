@@ -5,7 +5,7 @@ import json
 import math
 
 from tests.validation.conftest import SPEC, pair_layout, sdss_models, swing
-from validation.mesh3d import Check3DReport, Collision3D, PairDistance, validate_trajectory
+from rfp_twin.validation.mesh3d import Check3DReport, Collision3D, PairDistance, validate_trajectory
 
 MODELS = sdss_models()
 

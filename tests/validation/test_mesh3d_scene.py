@@ -10,13 +10,13 @@ import math
 import numpy as np
 import pytest
 
-from models.errors import TrajectoryError
-from models.geometry import LINKS
-from models.layout import Layout
-from models.trajectory import Trajectory
+from rfp_twin.models.errors import TrajectoryError
+from rfp_twin.models.geometry import LINKS
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.trajectory import Trajectory
 from tests.validation.conftest import PITCH, sdss_models, static
-from validation.mesh3d.scene import Scene
-from validation.numerics import axis_csr
+from rfp_twin.validation.mesh3d.scene import Scene
+from rfp_twin.validation.numerics import axis_csr
 
 MODELS = sdss_models()
 BODY, ALPHA, BETA, FID = (LINKS.index(k) for k in ("body", "alpha", "beta", "fiducial"))

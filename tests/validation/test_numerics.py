@@ -8,10 +8,10 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from models.errors import SpecError, TrajectoryError, UnknownRobotError
-from models.trajectory import Trajectory
+from rfp_twin.models.errors import SpecError, TrajectoryError, UnknownRobotError
+from rfp_twin.models.trajectory import Trajectory
 from tests.validation.conftest import pair_layout
-from validation.numerics import (STACK, axis_csr, beta_segment, checked_float,
+from rfp_twin.validation.numerics import (STACK, axis_csr, beta_segment, checked_float,
                                  collision_table, interp_angle, json_float, max_rate,
                                  pairs_within, peak_and_travel, plain_fields, push,
                                  push_halves, robot_bases, segment_distance,

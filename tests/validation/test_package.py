@@ -3,12 +3,12 @@ from __future__ import annotations
 
 import pytest
 
-import validation
+from rfp_twin import validation
 from tests.validation.conftest import python_lines
 
 
 def test_public_names_resolve_to_the_subpackages_objects():
-    from validation import buffer, checker2d, mesh3d
+    from rfp_twin.validation import buffer, checker2d, mesh3d
 
     homes = {"checker2d": checker2d, "mesh3d": mesh3d, "buffer": buffer}
     assert set(validation.__all__) == {
@@ -25,8 +25,8 @@ def test_public_names_resolve_to_the_subpackages_objects():
 
 
 def test_importing_the_package_loads_no_check_until_a_name_is_used():
-    lines = python_lines("import sys, validation; "
-                         "print(sorted(m for m in sys.modules if m.startswith('validation.'))); "
+    lines = python_lines("import sys; from rfp_twin import validation; "
+                         "print(sorted(m for m in sys.modules if m.startswith('rfp_twin.validation.'))); "
                          "validation.check_trajectory; "
-                         "print('fcl' in sys.modules, 'validation.checker2d' in sys.modules)")
+                         "print('fcl' in sys.modules, 'rfp_twin.validation.checker2d' in sys.modules)")
     assert lines[-2:] == ["[]", "False True"]

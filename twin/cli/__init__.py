@@ -1,20 +1,20 @@
 """The ``rfp-twin`` command line (typer + rich): options in, pipeline out, tables printed.
 
-One module per group of commands: ``plan`` (:mod:`twin.cli.plan`), ``simulate``,
-``render``, ``record``, ``model export`` (:mod:`twin.cli.run`), ``validate``,
-``calibrate-buffer`` (:mod:`twin.cli.validate`), ``study ...`` (:mod:`twin.cli.study`).
-Every error is one line and an exit code from :mod:`twin.cli.console`; nothing
+One module per group of commands: ``plan`` (:mod:`rfp_twin.twin.cli.plan`), ``simulate``,
+``render``, ``record``, ``model export`` (:mod:`rfp_twin.twin.cli.run`), ``validate``,
+``calibrate-buffer`` (:mod:`rfp_twin.twin.cli.validate`), ``study ...`` (:mod:`rfp_twin.twin.cli.study`).
+Every error is one line and an exit code from :mod:`rfp_twin.twin.cli.console`; nothing
 half-written is left behind.
 """
 from __future__ import annotations
 
 import typer
 
-from twin.cli import plan as _plan
-from twin.cli import run as _run
-from twin.cli.console import run_app
-from twin.cli.study import study_app
-from twin.cli.validate import register as _register_validation
+from rfp_twin.twin.cli import plan as _plan
+from rfp_twin.twin.cli import run as _run
+from rfp_twin.twin.cli.console import run_app
+from rfp_twin.twin.cli.study import study_app
+from rfp_twin.twin.cli.validate import register as _register_validation
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Digital twin of robotic fiber positioner arrays.")

@@ -1,4 +1,4 @@
-"""``python -m twin.cli ARGS`` runs ``rfp-twin ARGS``."""
-from twin.cli import main
+"""``python -m rfp_twin.twin.cli ARGS`` runs ``rfp-twin ARGS``."""
+from rfp_twin.twin.cli import main
 
 main()

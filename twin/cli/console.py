@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from models.errors import RfpError
+from rfp_twin.models.errors import RfpError
 
 EXIT_BAD_INPUT = 2
 EXIT_INCOMPLETE = 3

@@ -1,7 +1,7 @@
 """``rfp-twin plan``: parse the options, run the pipeline, print the summary.
 
-All the work is :class:`twin.pipeline.Reconfiguration`; this module only turns options
-into its inputs and its :class:`twin.outcome.Outcome` into a run folder and a table.
+All the work is :class:`rfp_twin.twin.pipeline.Reconfiguration`; this module only turns options
+into its inputs and its :class:`rfp_twin.twin.outcome.Outcome` into a run folder and a table.
 """
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from models.errors import LayoutError, TargetError
-from twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, console, fail,
+from rfp_twin.models.errors import LayoutError, TargetError
+from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, console, fail,
                                   one_line_errors, progress_bar)
 
 
@@ -86,9 +86,9 @@ def plan(
     By default the stepwise plan is smoothed, time-parametrised under the spec's speed and
     acceleration limits (interacting robots share one path parameter), simplified to at most
     --max-points per axis and verified again at buffer - budget."""
-    from models.robot import load_spec
-    from models.layout import default_layout_name
-    from twin.pipeline import PlanOptions, Reconfiguration
+    from rfp_twin.models.robot import load_spec
+    from rfp_twin.models.layout import default_layout_name
+    from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 
     t_start = time.perf_counter()
     options = PlanOptions(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,

@@ -1,6 +1,6 @@
 """``rfp-twin simulate | render | record | model export``: a run folder in the MuJoCo twin.
 
-Each command reads a run folder written by ``rfp-twin plan`` (:func:`twin.run_dir.load_run`)
+Each command reads a run folder written by ``rfp-twin plan`` (:func:`rfp_twin.twin.run_dir.load_run`)
 and builds the MuJoCo model of its spec and layout; heavy imports (mujoco, rerun) happen
 inside the commands so that ``rfp-twin --help`` stays fast.
 """
@@ -11,21 +11,21 @@ from typing import Optional
 
 import typer
 
-from models.errors import RfpError
-from twin.cli.console import (EXIT_COLLISION, console, err_console, fail, one_line_errors,
+from rfp_twin.models.errors import RfpError
+from rfp_twin.twin.cli.console import (EXIT_COLLISION, console, err_console, fail, one_line_errors,
                                   progress_bar)
-from twin.cli.plan import parse_ids
+from rfp_twin.twin.cli.plan import parse_ids
 
 model_app = typer.Typer(no_args_is_help=True, help="The MuJoCo model of an array.")
 
-#: Fault options: (option, fault class name in twin.sim, number of fields, form).
+#: Fault options: (option, fault class name in rfp_twin.twin.sim, number of fields, form).
 _FAULTS = (("--stuck", "Stuck", 2, "ID:TIME_S"), ("--slow", "Slow", 2, "ID:FACTOR"),
            ("--encoder-offset", "EncoderOffset", 3, "ID:ALPHA_DEG:BETA_DEG"))
 
 
 def parse_faults(stuck: list[str], slow: list[str], offset: list[str]) -> list:
-    """Fault objects of :mod:`twin.sim` from the ``--stuck/--slow/--encoder-offset`` items."""
-    import twin.sim as sim
+    """Fault objects of :mod:`rfp_twin.twin.sim` from the ``--stuck/--slow/--encoder-offset`` items."""
+    import rfp_twin.twin.sim as sim
 
     faults = []
     for (opt, cls_name, n_args, form), items in zip(_FAULTS, (stuck, slow, offset)):
@@ -50,9 +50,9 @@ def model_export(
     timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
 ) -> None:
     """Write the MuJoCo model (MJCF + STL meshes); MuJoCo's own viewer opens it."""
-    from models.mjcf import ModelOptions, export_model
-    from models.robot import load_spec
-    from models.layout import default_layout_name, layout_by_name
+    from rfp_twin.models.mjcf import ModelOptions, export_model
+    from rfp_twin.models.robot import load_spec
+    from rfp_twin.models.layout import default_layout_name, layout_by_name
 
     spec = load_spec(preset)
     lay = layout_by_name(layout or default_layout_name(spec), spec.pitch_mm,
@@ -70,9 +70,9 @@ def simulate(
     timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
 ) -> None:
     """Run the plan in the MuJoCo twin; writes RUN/sim.json; exit 4 on any robot contact."""
-    from models.mjcf import ModelOptions, build_model
-    from twin.run_dir import load_run
-    from twin.sim import simulate as run_sim
+    from rfp_twin.models.mjcf import ModelOptions, build_model
+    from rfp_twin.twin.run_dir import load_run
+    from rfp_twin.twin.sim import simulate as run_sim
 
     spec, lay, traj, _ = load_run(run)
     faults = parse_faults(stuck, slow, encoder_offset)
@@ -103,10 +103,10 @@ def render(
     full_quality: bool = typer.Option(False, help="Shadows, reflections, MSAA (slow on a CPU)."),
 ) -> None:
     """Simulate a run and render it offscreen to MP4 (robots coloured by state)."""
-    from twin.render import RenderSettings, render_run  # first: picks MUJOCO_GL before mujoco
+    from rfp_twin.twin.render import RenderSettings, render_run  # first: picks MUJOCO_GL before mujoco
 
-    from models.mjcf import build_model
-    from twin.run_dir import load_run
+    from rfp_twin.models.mjcf import build_model
+    from rfp_twin.twin.run_dir import load_run
 
     spec, lay, traj, _ = load_run(run, to_fold=fold)
     settings = RenderSettings(width=width, height=height, fps=fps, speedup=speedup,
@@ -128,9 +128,9 @@ def record(
     dt: Optional[float] = typer.Option(None, help="Seconds between logged poses [default 0.02]."),
 ) -> None:
     """Simulate a run and write a rerun recording: arm poses, fiber traces, contacts."""
-    from models.mjcf import build_model
-    from twin.record import RecordSettings, record_run
-    from twin.run_dir import load_run
+    from rfp_twin.models.mjcf import build_model
+    from rfp_twin.twin.record import RecordSettings, record_run
+    from rfp_twin.twin.run_dir import load_run
 
     spec, lay, traj, _ = load_run(run, to_fold=fold)
     with err_console.status("simulating and recording"):

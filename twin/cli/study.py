@@ -1,6 +1,6 @@
 """`rfp-twin study ...`: run design studies on Dask and report them.
 
-A typer sub-app; :mod:`twin.cli` mounts it as ``rfp-twin study``.
+A typer sub-app; :mod:`rfp_twin.twin.cli` mounts it as ``rfp-twin study``.
 
 Commands
 --------
@@ -16,9 +16,9 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, EXIT_INTERRUPTED, console,
+from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, EXIT_INTERRUPTED, console,
                                   err_console, fail, one_line_errors)
-from twin.studies import (default_out_dir, list_studies, load_study, machine_workers,
+from rfp_twin.twin.studies import (default_out_dir, list_studies, load_study, machine_workers,
                           run_study)
 
 study_app = typer.Typer(add_completion=False, no_args_is_help=True,
@@ -92,7 +92,7 @@ def run(
 
 
 def _report(study_dir: Path, out: Optional[Path], all_points: bool) -> None:
-    from twin.studies.report import write_report
+    from rfp_twin.twin.studies.report import write_report
 
     rep = write_report(study_dir, out, all_points=all_points)
     console.print(f"report: {rep.markdown}")

@@ -1,6 +1,6 @@
 """`rfp-twin validate` and `rfp-twin calibrate-buffer`: the 3D (FCL) checks on the CLI.
 
-``register(app)`` adds both commands to a typer app (``twin.cli`` calls it).
+``register(app)`` adds both commands to a typer app (``rfp_twin.twin.cli`` calls it).
 
 Commands
 --------
@@ -11,7 +11,7 @@ calibrate-buffer --preset sdss-v --out DIR
     Calibrate the 2D collision buffer against the 3D meshes; writes
     ``DIR/buffer_calibration.md``, ``DIR/calibration.json`` and PNG figures.
 
-Exit codes (:mod:`twin.cli.console`): 0 clear, 2 bad input (one-line message naming the
+Exit codes (:mod:`rfp_twin.twin.cli.console`): 0 clear, 2 bad input (one-line message naming the
 field / file and what is allowed), 4 collision.
 """
 from __future__ import annotations
@@ -23,8 +23,8 @@ from typing import Optional
 
 import typer
 
-from models.errors import SpecError, field_error
-from twin.cli.console import (EXIT_BAD_INPUT, EXIT_COLLISION, command_line, console, fail,
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.twin.cli.console import (EXIT_BAD_INPUT, EXIT_COLLISION, command_line, console, fail,
                                   one_line_errors, progress_bar)
 
 __all__ = ["register", "validate", "calibrate_buffer", "VALIDATION_JSON", "EXIT_BAD_INPUT",
@@ -38,7 +38,7 @@ def _geometry_for_run(geometry: Optional[str], spec, summary: dict):
     """The meshes for a run and where they came from: ``--geometry`` (preset name or
     TOML file with a ``[geometry]`` table), else the preset / file the run was planned
     with, else the defaults of its spec."""
-    from models.geometry import geometry_for_spec, load_geometry
+    from rfp_twin.models.geometry import geometry_for_spec, load_geometry
 
     if geometry is not None:
         return load_geometry(geometry, spec), str(geometry)
@@ -63,9 +63,9 @@ def validate(
     out: Optional[Path] = typer.Option(None, help="Report file [default: RUN/validation.json]."),
 ) -> None:
     """Check a run against the 3D collision meshes (FCL); exit 4 on any 3D collision."""
-    from models.files import atomic_write_text
-    from twin.run_dir import TRAJECTORIES, TRAJECTORIES_TO_FOLD, load_run
-    from validation.mesh3d import validate_trajectory
+    from rfp_twin.models.files import atomic_write_text
+    from rfp_twin.twin.run_dir import TRAJECTORIES, TRAJECTORIES_TO_FOLD, load_run
+    from rfp_twin.validation.mesh3d import validate_trajectory
 
     spec, layout, traj, summary = load_run(run, to_fold=fold)
     geom, geom_label = _geometry_for_run(geometry, spec, summary)
@@ -116,16 +116,16 @@ def calibrate_buffer(
 
     Smallest buffer for which 2D-safe implies 3D-safe, space wasted by the 2D model per
     buffer, and a Monte Carlo over angular errors."""
-    from models.geometry import load_geometry
-    from models.robot import load_spec
-    from validation.buffer import calibrate_buffer as run_calibration
-    from validation.buffer import write_report
+    from rfp_twin.models.geometry import load_geometry
+    from rfp_twin.models.robot import load_spec
+    from rfp_twin.validation.buffer import calibrate_buffer as run_calibration
+    from rfp_twin.validation.buffer import write_report
 
     spec = load_spec(preset)
     geom = load_geometry(geometry if geometry is not None else preset, spec)
     lay = None
     if layout is not None:
-        from models.layout import layout_by_name
+        from rfp_twin.models.layout import layout_by_name
 
         lay = layout_by_name(layout, spec.pitch_mm)
     errs = (spec.angular_error_deg[0] if alpha_error is None else alpha_error,

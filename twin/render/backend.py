@@ -1,12 +1,12 @@
 """The offscreen OpenGL backend of MuJoCo, chosen before ``mujoco`` is imported.
 
 MuJoCo reads ``MUJOCO_GL`` once, when ``mujoco`` is first imported. Importing this module
-(which :mod:`twin.render` does first, so that importing any part of the render package
+(which :mod:`rfp_twin.twin.render` does first, so that importing any part of the render package
 does it) therefore picks a backend and imports no mujoco itself: if ``MUJOCO_GL`` is
 unset, :func:`select_gl_backend` probes ``egl`` then ``osmesa``, each in a throw-away
 subprocess (a backend whose libraries are missing or broken can fail on import and must
 not poison this process), and sets ``MUJOCO_GL`` to the first that creates a context. A
-value the user set is kept as it is. Import :mod:`twin.render` before anything imports
+value the user set is kept as it is. Import :mod:`rfp_twin.twin.render` before anything imports
 mujoco (the CLI's ``render`` command imports it first).
 
 If mujoco was imported earlier anyway, rendering still works: :func:`gl_context_class`
@@ -23,7 +23,7 @@ import os
 import subprocess
 import sys
 
-from models.errors import RfpError
+from rfp_twin.models.errors import RfpError
 
 #: Offscreen backends, in the order they are tried.
 GL_BACKENDS = ("egl", "osmesa")

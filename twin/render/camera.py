@@ -24,8 +24,8 @@ import math
 import mujoco
 import numpy as np
 
-from models.mjcf import TwinModel, build_model
-from twin.render.settings import RenderSettings
+from rfp_twin.models.mjcf import TwinModel, build_model
+from rfp_twin.twin.render.settings import RenderSettings
 
 #: Lean wide-camera renders re-mesh round parts so that their outline departs from a
 #: circle by at most this, pixels ...

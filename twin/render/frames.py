@@ -4,14 +4,14 @@ draw it offscreen and read the pixels back into (height, width, 3) uint8 arrays.
 Robot colours
 -------------
 Each robot's alpha and beta links are coloured by its state
-(:mod:`twin.render.timeline`): waiting (the links' own colours), moving (blue), arrived
+(:mod:`rfp_twin.twin.render.timeline`): waiting (the links' own colours), moving (blue), arrived
 (green) and in contact (red), the alpha arm in a darker shade (:data:`ALPHA_SHADE`).
 
 Lean rendering (default)
 ------------------------
 The lean settings turn off multisampling, shadows, reflections, skybox, haze, fog and
 post processing, hide the fiber sites on the wide cameras (a fiber is 0.12 mm: below one
-pixel there), and draw the re-meshed render model (:func:`twin.render.camera.render_model`).
+pixel there), and draw the re-meshed render model (:func:`rfp_twin.twin.render.camera.render_model`).
 ``lean=False`` renders the twin's model as it is, with MuJoCo's default quality.
 
 Shapes: n robots (layout order); angles (n, 2) deg (alpha, beta); states (n,) state
@@ -22,11 +22,11 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from models.mjcf import TwinModel
-from twin.render.backend import GL_BACKENDS, RenderError, gl_context_class, require_backend
-from twin.render.camera import focal_px, render_model
-from twin.render.settings import RenderSettings
-from twin.render.timeline import ARRIVED, CONTACT, MOVING, STATE_NAMES, WAITING
+from rfp_twin.models.mjcf import TwinModel
+from rfp_twin.twin.render.backend import GL_BACKENDS, RenderError, gl_context_class, require_backend
+from rfp_twin.twin.render.camera import focal_px, render_model
+from rfp_twin.twin.render.settings import RenderSettings
+from rfp_twin.twin.render.timeline import ARRIVED, CONTACT, MOVING, STATE_NAMES, WAITING
 
 #: Beta-arm colour of each state (None: the link's own material colour).
 STATE_RGBA = {WAITING: None, MOVING: (0.15, 0.5, 1.0, 1.0), ARRIVED: (0.2, 0.8, 0.3, 1.0),
@@ -81,7 +81,7 @@ class FrameRenderer:
     Parameters
     ----------
     twin : TwinModel (not modified; frames come from a render copy,
-        :func:`twin.render.camera.render_model`)
+        :func:`rfp_twin.twin.render.camera.render_model`)
     settings : RenderSettings
 
     Use as a context manager (or call :meth:`close`): it owns a GL context.

@@ -1,4 +1,4 @@
-"""What :func:`twin.render.render_run` wrote: the MP4, its frames and the wall time spent.
+"""What :func:`rfp_twin.twin.render.render_run` wrote: the MP4, its frames and the wall time spent.
 
 Units: times in seconds (``sim_s`` and ``video_s`` of simulated / video time, the others
 wall time), frame sizes in pixels, rates in frames per (wall or video) second.
@@ -9,12 +9,12 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from twin.sim import SimReport
+from rfp_twin.twin.sim import SimReport
 
 
 @dataclass
 class RenderReport:
-    """What :func:`twin.render.render_run` wrote.
+    """What :func:`rfp_twin.twin.render.render_run` wrote.
 
     path : the MP4; frames : frames written; video_s : frames / fps; sim_s : simulated
     time shown; width, height, fps, speedup, camera : as rendered; backend : MUJOCO_GL;

@@ -12,15 +12,15 @@ from typing import Callable
 
 import numpy as np
 
-from models.mjcf import TwinModel
-from models.trajectory import Trajectory
-from twin.render.backend import RenderError, require_backend
-from twin.render.frames import FrameRenderer
-from twin.render.report import RenderReport
-from twin.render.settings import RenderSettings
-from twin.render.timeline import frame_timeline
-from twin.render.video import Mp4Writer
-from twin.sim import SimReport, SimSettings, simulate
+from rfp_twin.models.mjcf import TwinModel
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.render.backend import RenderError, require_backend
+from rfp_twin.twin.render.frames import FrameRenderer
+from rfp_twin.twin.render.report import RenderReport
+from rfp_twin.twin.render.settings import RenderSettings
+from rfp_twin.twin.render.timeline import frame_timeline
+from rfp_twin.twin.render.video import Mp4Writer
+from rfp_twin.twin.sim import SimReport, SimSettings, simulate
 
 #: ``progress(frames_done, frames_total)``.
 Progress = Callable[[int, int], None]
@@ -39,7 +39,7 @@ def render_run(twin: TwinModel, trajectory: Trajectory | None, out_mp4: str | Pa
     out_mp4 : path of the video (written atomically).
     settings : RenderSettings
     sim_report : a finished simulation with its record; default: simulate ``trajectory``
-        with ``faults`` and ``sim_settings`` (:func:`twin.sim.simulate`).
+        with ``faults`` and ``sim_settings`` (:func:`rfp_twin.twin.sim.simulate`).
     progress : called as ``progress(frames_done, frames_total)`` after each frame.
 
     Returns

@@ -9,8 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from models.mjcf import CAMERAS
-from twin.render.backend import RenderError
+from rfp_twin.models.mjcf import CAMERAS
+from rfp_twin.twin.render.backend import RenderError
 
 #: Largest frame width or height, pixels.
 MAX_SIZE = 4096
@@ -29,12 +29,12 @@ class RenderSettings:
     camera : ``top``, ``oblique`` or ``closeup`` (the model's cameras).
     robot_id : with ``closeup``, the robot to look at (default: the model's close-up
         robot, nearest the centre).
-    lean : cheap CPU render settings (see :mod:`twin.render.camera` and
-        :mod:`twin.render.frames`); False = MuJoCo defaults.
+    lean : cheap CPU render settings (see :mod:`rfp_twin.twin.render.camera` and
+        :mod:`rfp_twin.twin.render.frames`); False = MuJoCo defaults.
     fit : move the ``top`` / ``oblique`` camera (orientation and field of view kept) so
         that the whole grid (bases plus arm reach, plate to focal surface) fills the frame,
         centred, with a small margin, for this frame's aspect ratio
-        (:func:`twin.render.camera.fitted_camera`; the model's cameras are framed for a
+        (:func:`rfp_twin.twin.render.camera.fitted_camera`; the model's cameras are framed for a
         square). False: the model's camera poses as they are.
     crf, preset : libx264 quality (0-51, lower is better) and speed preset.
     """

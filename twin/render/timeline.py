@@ -12,7 +12,7 @@ Robot states
 At each frame a robot is waiting (not moving, not at its end), moving (turning faster
 than :data:`MOVING_DEG_S` deg/s on either axis), arrived (within
 :data:`ARRIVED_TOL_DEG` deg of where the run ends it on both axes) or in contact (a
-contact of the simulation's :class:`twin.sim.ContactLog` since the previous frame; this
+contact of the simulation's :class:`rfp_twin.twin.sim.ContactLog` since the previous frame; this
 wins over the others).
 
 Shapes: F frames, n robots (layout order).
@@ -24,10 +24,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.mjcf import TwinModel
-from twin.render.backend import RenderError
-from twin.render.settings import RenderSettings
-from twin.sim import SimReport
+from rfp_twin.models.mjcf import TwinModel
+from rfp_twin.twin.render.backend import RenderError
+from rfp_twin.twin.render.settings import RenderSettings
+from rfp_twin.twin.sim import SimReport
 
 #: Robot states, as stored in a timeline's ``states`` array.
 WAITING, MOVING, ARRIVED, CONTACT = 0, 1, 2, 3

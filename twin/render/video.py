@@ -12,8 +12,8 @@ from pathlib import Path
 import imageio_ffmpeg
 import numpy as np
 
-from models.files import atomic_write_bytes
-from twin.render.backend import RenderError
+from rfp_twin.models.files import atomic_write_bytes
+from rfp_twin.twin.render.backend import RenderError
 
 
 class Mp4Writer:

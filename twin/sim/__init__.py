@@ -6,18 +6,18 @@ the nominal trajectory), and every contact between two robots (and between a rob
 fiducial): time, ids, penetration depth. Faults change what one robot is commanded or
 measures. The parts:
 
-- :mod:`~twin.sim.faults`: :class:`Stuck`, :class:`Slow`, :class:`EncoderOffset`
-- :mod:`~twin.sim.control`: commanded angles, servo targets, tracking error
-- :mod:`~twin.sim.contacts`: :class:`ContactLog` of robot-robot / robot-fiducial contacts
-- :mod:`~twin.sim.report`: :class:`SimRecord` (sampled history), :class:`SimReport`
-- :mod:`~twin.sim.simulator`: :class:`SimSettings`, :class:`Simulator`, :func:`simulate`
+- :mod:`~rfp_twin.twin.sim.faults`: :class:`Stuck`, :class:`Slow`, :class:`EncoderOffset`
+- :mod:`~rfp_twin.twin.sim.control`: commanded angles, servo targets, tracking error
+- :mod:`~rfp_twin.twin.sim.contacts`: :class:`ContactLog` of robot-robot / robot-fiducial contacts
+- :mod:`~rfp_twin.twin.sim.report`: :class:`SimRecord` (sampled history), :class:`SimReport`
+- :mod:`~rfp_twin.twin.sim.simulator`: :class:`SimSettings`, :class:`Simulator`, :func:`simulate`
 
 All public numbers: mm, degrees, seconds; arrays over n robots in layout order.
 """
-from twin.sim.contacts import ContactLog
-from twin.sim.faults import EncoderOffset, Fault, Slow, Stuck
-from twin.sim.report import SimRecord, SimReport
-from twin.sim.simulator import Callback, SimSettings, Simulator, mujoco_warnings, simulate
+from rfp_twin.twin.sim.contacts import ContactLog
+from rfp_twin.twin.sim.faults import EncoderOffset, Fault, Slow, Stuck
+from rfp_twin.twin.sim.report import SimRecord, SimReport
+from rfp_twin.twin.sim.simulator import Callback, SimSettings, Simulator, mujoco_warnings, simulate
 
 __all__ = ["Callback", "ContactLog", "EncoderOffset", "Fault", "SimRecord", "SimReport",
            "SimSettings", "Simulator", "Slow", "Stuck", "mujoco_warnings", "simulate"]

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from models.mjcf import ModelIndex
+from rfp_twin.models.mjcf import ModelIndex
 
 
 @dataclass
@@ -73,7 +73,7 @@ class ContactRecorder:
 
     Parameters
     ----------
-    index : the model's :class:`models.mjcf.ModelIndex` (geom -> robot / fiducial index,
+    index : the model's :class:`rfp_twin.models.mjcf.ModelIndex` (geom -> robot / fiducial index,
         robot and fiducial ids)
     """
 

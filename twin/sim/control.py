@@ -1,11 +1,11 @@
 """The controller and the tracking error: what each servo is told, and how far each robot
 is from its nominal trajectory.
 
-Each robot's two position servos (:mod:`models.mjcf`) follow the trajectory: every
+Each robot's two position servos (:mod:`rfp_twin.models.mjcf`) follow the trajectory: every
 physics step the actuator target is the commanded angle at the end of the step plus a
 velocity feed-forward ``(kv / kp) * d(angle)/dt``, so the servo tracks ramps without the
 steady lag of a pure PD loop. Robots the trajectory does not mention hold the spec's
-fold configuration; faults (:mod:`twin.sim.faults`) change what a robot is commanded.
+fold configuration; faults (:mod:`rfp_twin.twin.sim.faults`) change what a robot is commanded.
 
 The tracking error is the true joint angle minus the nominal trajectory (without
 faults), per robot and axis.
@@ -17,11 +17,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.errors import TrajectoryError
-from models.kinematics import forward
-from models.mjcf import TwinModel
-from models.trajectory import Trajectory
-from twin.sim.faults import fault_effects
+from rfp_twin.models.errors import TrajectoryError
+from rfp_twin.models.kinematics import forward
+from rfp_twin.models.mjcf import TwinModel
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.sim.faults import fault_effects
 
 
 def feedforward_gains(twin: TwinModel) -> np.ndarray:
@@ -40,7 +40,7 @@ class Commands:
     ----------
     twin : TwinModel
     trajectory : Trajectory; its robot ids must be robots of the twin's layout, once each.
-    faults : iterable of Stuck / Slow / EncoderOffset (:func:`twin.sim.faults.fault_effects`)
+    faults : iterable of Stuck / Slow / EncoderOffset (:func:`rfp_twin.twin.sim.faults.fault_effects`)
     feedforward : add the velocity feed-forward to the servo targets.
     """
 
@@ -117,7 +117,7 @@ class TrackingError:
 
 def fiber_error_mm(twin: TwinModel, angles_deg: np.ndarray, nominal_deg: np.ndarray) -> np.ndarray:
     """(n,) distance, mm, between the fiber at the true angles (n, 2) deg and at the
-    nominal angles (n, 2) deg (planar kinematics, :func:`models.kinematics.forward`)."""
+    nominal angles (n, 2) deg (planar kinematics, :func:`rfp_twin.models.kinematics.forward`)."""
     spec = twin.spec
     base = np.ascontiguousarray(twin.layout.robot_xy, dtype=np.float64)
     f_true, _ = forward(base, np.ascontiguousarray(angles_deg), spec.alpha_length_mm,

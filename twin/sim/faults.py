@@ -18,8 +18,8 @@ from typing import Union
 
 import numpy as np
 
-from models.errors import TrajectoryError
-from models.layout import Layout
+from rfp_twin.models.errors import TrajectoryError
+from rfp_twin.models.layout import Layout
 
 
 @dataclass(frozen=True)

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from models.errors import RfpError, UnknownRobotError
-from models.files import atomic_write_text
-from twin.sim.contacts import ContactLog
+from rfp_twin.models.errors import RfpError, UnknownRobotError
+from rfp_twin.models.files import atomic_write_text
+from rfp_twin.twin.sim.contacts import ContactLog
 
 
 @dataclass

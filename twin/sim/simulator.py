@@ -1,10 +1,10 @@
 """The driver: step a MuJoCo grid model along a Trajectory and report what happened.
 
-Every physics step the :class:`~twin.sim.control.Commands` give the servo targets, the
-:class:`~twin.sim.control.TrackingError` accounts the true angles against the nominal
-trajectory, the :class:`~twin.sim.contacts.ContactRecorder` keeps the contacts, and every
+Every physics step the :class:`~rfp_twin.twin.sim.control.Commands` give the servo targets, the
+:class:`~rfp_twin.twin.sim.control.TrackingError` accounts the true angles against the nominal
+trajectory, the :class:`~rfp_twin.twin.sim.contacts.ContactRecorder` keeps the contacts, and every
 ``record_dt_s`` the angles are sampled (and a callback runs). The result is a
-:class:`~twin.sim.report.SimReport`.
+:class:`~rfp_twin.twin.sim.report.SimReport`.
 
 Units: angles in degrees, times in seconds (simulated, except wall times), lengths in mm.
 Robots in layout order (n robots).
@@ -19,12 +19,12 @@ from typing import Callable
 import mujoco
 import numpy as np
 
-from models.errors import TrajectoryError
-from models.mjcf import TwinModel, collect_mujoco_warnings
-from models.trajectory import Trajectory
-from twin.sim.contacts import ContactRecorder
-from twin.sim.control import Commands, TrackingError, fiber_error_mm
-from twin.sim.report import SimRecord, SimReport
+from rfp_twin.models.errors import TrajectoryError
+from rfp_twin.models.mjcf import TwinModel, collect_mujoco_warnings
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.sim.contacts import ContactRecorder
+from rfp_twin.twin.sim.control import Commands, TrackingError, fiber_error_mm
+from rfp_twin.twin.sim.report import SimRecord, SimReport
 
 #: ``callback(t, model, data)``, t in simulated seconds.
 Callback = Callable[[float, mujoco.MjModel, mujoco.MjData], None]
@@ -76,7 +76,7 @@ def _as_slice(ids: np.ndarray):
 
 
 class Simulator:
-    """Runs one trajectory on a :class:`models.mjcf.TwinModel`.
+    """Runs one trajectory on a :class:`rfp_twin.models.mjcf.TwinModel`.
 
     Parameters
     ----------

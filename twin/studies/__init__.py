@@ -3,13 +3,13 @@
 Instrument teams choose pitch, arm lengths and collision buffers from thousands of
 simulated reconfigurations (Sayres et al. 2021 Sect. 5). One module per job:
 
-- :mod:`~twin.studies.spec`: the study file's format, :class:`Study`, grid points, trials
-- :mod:`~twin.studies.parse`: study TOML -> validated :class:`Study`; the shipped studies
-- :mod:`~twin.studies.runner`: one trial -> one row (the :mod:`twin.pipeline` on a point)
-- :mod:`~twin.studies.cluster`: Dask cluster or scheduler address, batches, the task loop
-- :mod:`~twin.studies.store`: Parquet rows, the writer lock, the resume scan
-- :mod:`~twin.studies.run`: :func:`run_study`, resume and summary
-- :mod:`~twin.studies.report` (with ``groups``, ``figures``, ``paper``): markdown and
+- :mod:`~rfp_twin.twin.studies.spec`: the study file's format, :class:`Study`, grid points, trials
+- :mod:`~rfp_twin.twin.studies.parse`: study TOML -> validated :class:`Study`; the shipped studies
+- :mod:`~rfp_twin.twin.studies.runner`: one trial -> one row (the :mod:`rfp_twin.twin.pipeline` on a point)
+- :mod:`~rfp_twin.twin.studies.cluster`: Dask cluster or scheduler address, batches, the task loop
+- :mod:`~rfp_twin.twin.studies.store`: Parquet rows, the writer lock, the resume scan
+- :mod:`~rfp_twin.twin.studies.run`: :func:`run_study`, resume and summary
+- :mod:`~rfp_twin.twin.studies.report` (with ``groups``, ``figures``, ``paper``): markdown and
   figures in the style of Sayres 2021 Figs. 10-18
 
 Example::
@@ -19,13 +19,13 @@ Example::
 """
 from __future__ import annotations
 
-from twin.studies.cluster import machine_workers
-from twin.studies.parse import list_studies, load_study, parse_study, study_path
-from twin.studies.run import RunSummary, run_study
-from twin.studies.runner import run_trial
-from twin.studies.spec import (GRID_KEYS, PARAM_COLUMNS, STUDY_KEYS, Study, StudyError,
+from rfp_twin.twin.studies.cluster import machine_workers
+from rfp_twin.twin.studies.parse import list_studies, load_study, parse_study, study_path
+from rfp_twin.twin.studies.run import RunSummary, run_study
+from rfp_twin.twin.studies.runner import run_trial
+from rfp_twin.twin.studies.spec import (GRID_KEYS, PARAM_COLUMNS, STUDY_KEYS, Study, StudyError,
                                StudyPoint, Trial)
-from twin.studies.store import (COMPACT_PREFIX, RESULTS, SCHEMA, STUDY_COPY, compact_results,
+from rfp_twin.twin.studies.store import (COMPACT_PREFIX, RESULTS, SCHEMA, STUDY_COPY, compact_results,
                                 default_out_dir, done_keys, read_results, results_dir, write_row)
 
 __all__ = [

@@ -30,12 +30,12 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from twin.studies.runner import run_batch
-from twin.studies.spec import Study, StudyError, Trial
-from twin.studies.store import write_row
+from rfp_twin.twin.studies.runner import run_batch
+from rfp_twin.twin.studies.spec import Study, StudyError, Trial
+from rfp_twin.twin.studies.store import write_row
 
 if TYPE_CHECKING:  # pragma: no cover
-    from twin.studies.run import RunSummary
+    from rfp_twin.twin.studies.run import RunSummary
 
 __all__ = ["machine_workers", "batches", "connect", "local_client", "drive", "CONNECT_TIMEOUT_S"]
 

@@ -1,7 +1,7 @@
 """The figures of a study report (matplotlib, Agg), in the style of Sayres 2021 Figs. 10-18.
 
 :func:`draw_figures` draws what the study varies (see :data:`FIGURES` and the table in
-:mod:`twin.studies.report`) and says why the others are not drawn. Lines follow the
+:mod:`rfp_twin.twin.studies.report`) and says why the others are not drawn. Lines follow the
 paper: MC blue solid, GC red dashed; box plots have whiskers at 1.5 IQR and outliers as
 diamonds; grid-size plots shade the 95 % confidence interval of the mean (Student t).
 Other parameters that vary become extra lines in lighter or darker shades of the
@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.studies.groups import (ALG_ORDER, ALG_SHORT, Group, fmt_val, make_series,
+from rfp_twin.twin.studies.groups import (ALG_ORDER, ALG_SHORT, Group, fmt_val, make_series,
                                  series_label)
-from twin.studies.paper import PAPER_FIG10, PAPER_FIG11, PAPER_FOLD, is_sim1
-from twin.studies.store import replace_atomically
+from rfp_twin.twin.studies.paper import PAPER_FIG10, PAPER_FIG11, PAPER_FOLD, is_sim1
+from rfp_twin.twin.studies.store import replace_atomically
 
 __all__ = ["FIGURES", "draw_figures"]
 

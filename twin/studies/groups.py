@@ -1,6 +1,6 @@
 """Study rows grouped by grid point, the series a figure draws, and their labels.
 
-:func:`load_groups` reads a study folder's rows (:func:`twin.studies.store.read_results`)
+:func:`load_groups` reads a study folder's rows (:func:`rfp_twin.twin.studies.store.read_results`)
 into one :class:`Group` per grid point: the point's parameters and, per metric, the
 values of its trials that did not fail. :func:`make_series` cuts groups into the lines of a
 figure (one per algorithm and value of the other varied parameters). Units: mm, deg, s.
@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from models.errors import RfpError
-from twin.studies.parse import parse_study
-from twin.studies.spec import PARAM_COLUMNS
-from twin.studies.store import STUDY_COPY, read_results
+from rfp_twin.models.errors import RfpError
+from rfp_twin.twin.studies.parse import parse_study
+from rfp_twin.twin.studies.spec import PARAM_COLUMNS
+from rfp_twin.twin.studies.store import STUDY_COPY, read_results
 
 __all__ = ["Group", "load_groups", "varied_params", "make_series", "series_label",
            "fmt_val", "fmt_num", "sort_key", "ALG_SHORT", "ALG_ORDER", "SERIES_PARAMS", "SHORT"]

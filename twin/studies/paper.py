@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from twin.studies.groups import ALG_ORDER, ALG_SHORT, Group, fmt_num
+from rfp_twin.twin.studies.groups import ALG_ORDER, ALG_SHORT, Group, fmt_num
 
 __all__ = ["SIM1_CONDITIONS", "PAPER_FIG10", "PAPER_FIG11", "PAPER_FOLD", "PAPER_TABLE3",
            "is_sim1", "paper_sections"]

@@ -1,11 +1,11 @@
-"""Study TOML text -> a validated :class:`~twin.studies.spec.Study`.
+"""Study TOML text -> a validated :class:`~rfp_twin.twin.studies.spec.Study`.
 
-The file format is described in :mod:`twin.studies.spec`.
+The file format is described in :mod:`rfp_twin.twin.studies.spec`.
 
 Every key and value is checked on its own, then every grid point is resolved against its
 robot preset (defaults filled, the combination checked: buffer below pitch / 2, fold
 within the joint limits, the real focal plane's fixed pitch). Errors are one
-:class:`~twin.studies.spec.StudyError` line naming the file, the key and what is allowed.
+:class:`~rfp_twin.twin.studies.spec.StudyError` line naming the file, the key and what is allowed.
 Units: mm, deg.
 """
 from __future__ import annotations
@@ -16,10 +16,10 @@ import tomllib
 from importlib import resources
 from pathlib import Path
 
-from models.errors import RfpError
-from models.layout import hex_rings, nearest_hex_counts
-from models.robot import RobotSpec, list_presets, load_spec
-from twin.studies.spec import (ALGORITHM_ALIASES, DIRECTIONS, GRID_DEFAULTS, GRID_KEYS, LAYOUTS,
+from rfp_twin.models.errors import RfpError
+from rfp_twin.models.layout import hex_rings, nearest_hex_counts
+from rfp_twin.models.robot import RobotSpec, list_presets, load_spec
+from rfp_twin.twin.studies.spec import (ALGORITHM_ALIASES, DIRECTIONS, GRID_DEFAULTS, GRID_KEYS, LAYOUTS,
                                NAME_RE, RESOLUTIONS, STUDY_KEYS, Study, StudyError, StudyPoint,
                                point_layout)
 
@@ -28,7 +28,7 @@ __all__ = ["list_studies", "study_path", "load_study", "parse_study", "is_int"]
 
 def list_studies() -> list[str]:
     """Names of the studies shipped with rfp-twin (``twin/study_files/*.toml``)."""
-    root = resources.files("twin.study_files")
+    root = resources.files("rfp_twin.twin.study_files")
     return sorted(p.name[:-5] for p in root.iterdir() if p.name.endswith(".toml"))
 
 
@@ -40,7 +40,7 @@ def study_path(name_or_path: str | Path) -> Path:
             raise StudyError(f"{path}: study file not found; allowed: an existing .toml file or a "
                              f"shipped study ({', '.join(list_studies())})")
         return path
-    ref = resources.files("twin.study_files") / f"{name_or_path}.toml"
+    ref = resources.files("rfp_twin.twin.study_files") / f"{name_or_path}.toml"
     if not ref.is_file():
         raise StudyError(f"unknown study {str(name_or_path)!r}; allowed: "
                          f"{', '.join(list_studies())} or a path to a .toml file")

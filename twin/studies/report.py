@@ -1,8 +1,8 @@
 """Study reports: markdown and matplotlib figures in the style of Sayres 2021 Figs. 10-18.
 
 :func:`write_report` reads a study folder (``results/`` written by
-:func:`twin.studies.run.run_study`, plus ``study.toml``) and writes ``report/report.md`` and
-PNG figures (:mod:`twin.studies.figures`). Which figures are drawn depends on what the study varies:
+:func:`rfp_twin.twin.studies.run.run_study`, plus ``study.toml``) and writes ``report/report.md`` and
+PNG figures (:mod:`rfp_twin.twin.studies.figures`). Which figures are drawn depends on what the study varies:
 
 ================================  ====================================  ===================
 figure                            drawn when                            paper
@@ -29,7 +29,7 @@ When the study has the conditions of the paper's Simulation 1 (547-robot hex gri
 15 mm arms, 22.4 mm pitch, 0.1 deg, reverse with target replacement), the report puts
 the values the paper states for Figs. 10, 11, 13 and 14 beside ours; Table 3 rows are
 compared wherever the study has their (algorithm, buffer, step) on that grid
-(:mod:`twin.studies.paper`).
+(:mod:`rfp_twin.twin.studies.paper`).
 """
 from __future__ import annotations
 
@@ -42,12 +42,12 @@ from pathlib import Path
 
 import numpy as np
 
-from twin.studies.figures import FIGURES, draw_figures
-from twin.studies.groups import (ALG_SHORT, SHORT, Group, fmt_num, fmt_val, load_groups,
+from rfp_twin.twin.studies.figures import FIGURES, draw_figures
+from rfp_twin.twin.studies.groups import (ALG_SHORT, SHORT, Group, fmt_num, fmt_val, load_groups,
                                  make_series, series_label, varied_params)
-from twin.studies.paper import PAPER_FIG10, paper_sections
-from twin.studies.spec import StudyError
-from twin.studies.store import RESULTS, replace_atomically
+from rfp_twin.twin.studies.paper import PAPER_FIG10, paper_sections
+from rfp_twin.twin.studies.spec import StudyError
+from rfp_twin.twin.studies.store import RESULTS, replace_atomically
 
 __all__ = ["Report", "write_report", "load_groups", "Group", "FIGURES", "PAPER_FIG10"]
 
@@ -198,7 +198,7 @@ def _reproduce_line(g: Group) -> str:
     if p["layout"] == "sdss-v-fps":
         lay = "sdss-v-fps"
     else:
-        from models.layout import hex_rings
+        from rfp_twin.models.layout import hex_rings
         lay = f"hex:{p['n_robots']}" if p["n_robots"] >= 37 else f"hex:{hex_rings(p['n_robots'])}"
     seeds = g.v("seed")
     if not seeds.size:

@@ -3,8 +3,8 @@
 :func:`run_study` checks its arguments and reaches the scheduler it is given before it
 writes anything (a bad address leaves no folder behind), then takes the study folder's
 writer lock, copies the definition to ``study.toml``, skips every trial already in
-``results/`` and runs the others (:mod:`twin.studies.cluster`), writing each row as it
-comes back (:mod:`twin.studies.store`).
+``results/`` and runs the others (:mod:`rfp_twin.twin.studies.cluster`), writing each row as it
+comes back (:mod:`rfp_twin.twin.studies.store`).
 """
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from twin.studies.cluster import batches, connect, drive, local_client
-from twin.studies.parse import is_int
-from twin.studies.spec import Study, StudyError
-from twin.studies.store import (COMPACT_AT, RESULTS, WriterLock, compact_results, data_files,
+from rfp_twin.twin.studies.cluster import batches, connect, drive, local_client
+from rfp_twin.twin.studies.parse import is_int
+from rfp_twin.twin.studies.spec import Study, StudyError
+from rfp_twin.twin.studies.store import (COMPACT_AT, RESULTS, WriterLock, compact_results, data_files,
                                 default_out_dir, done_keys, write_study_copy)
 
 __all__ = ["RunSummary", "run_study"]

@@ -1,17 +1,17 @@
 """One study trial -> one row: the reconfiguration pipeline on a grid point, its metrics.
 
-A trial is :class:`twin.pipeline.Reconfiguration` with the point's options and
+A trial is :class:`rfp_twin.twin.pipeline.Reconfiguration` with the point's options and
 ``raw=True``: seeded random targets, the plan (stepwise planner with deadlock resolution,
 or a potential field) and, when the study checks, the independent 2D check of the
-stepwise paths at the planning buffer (:attr:`twin.outcome.Outcome.check`). The random
+stepwise paths at the planning buffer (:attr:`rfp_twin.twin.outcome.Outcome.check`). The random
 sequence is the pipeline's, i.e. ``rfp-twin plan --seed SEED``: targets drawn from
 ``numpy.random.default_rng(seed)``, then the planner driven by the same generator. A
 design whose folded state already collides is recorded as an error row
-(:func:`twin.pipeline.folded_clearance_error`), as is any other :class:`RfpError` (e.g.
+(:func:`rfp_twin.twin.pipeline.folded_clearance_error`), as is any other :class:`RfpError` (e.g.
 no clear random targets in a very dense array): a study maps where designs fail.
 
 The functions here run on Dask workers (:func:`run_batch`) or in this process
-(:func:`run_trial`). Row columns: :data:`twin.studies.store.SCHEMA`; units mm, deg, s.
+(:func:`run_trial`). Row columns: :data:`rfp_twin.twin.studies.store.SCHEMA`; units mm, deg, s.
 """
 from __future__ import annotations
 
@@ -23,13 +23,13 @@ import time
 from datetime import datetime, timezone
 from typing import Any
 
-from models.array import ArrayGeometry
-from models.errors import RfpError
-from models.robot import RobotSpec
-from twin.pipeline import (FIELD_ALGORITHMS, PlanOptions, Reconfiguration, folded_clearance_error,
+from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.errors import RfpError
+from rfp_twin.models.robot import RobotSpec
+from rfp_twin.twin.pipeline import (FIELD_ALGORITHMS, PlanOptions, Reconfiguration, folded_clearance_error,
                            plan_random)
-from twin.studies.parse import parse_study
-from twin.studies.spec import PARAM_COLUMNS, StudyPoint, point_layout
+from rfp_twin.twin.studies.parse import parse_study
+from rfp_twin.twin.studies.spec import PARAM_COLUMNS, StudyPoint, point_layout
 
 __all__ = ["run_trial", "run_batch"]
 

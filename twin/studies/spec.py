@@ -3,7 +3,7 @@
 A *study* is a TOML file that names a parameter grid, a number of trials per grid point
 and a base seed (Sayres et al. 2021 Sect. 5 ran 36,000 trials for its Fig. 10); every
 trial is one seeded random target draw + one planned reconfiguration + optionally the
-independent dense 2D check (:mod:`twin.studies.runner`). :mod:`twin.studies.parse` reads
+independent dense 2D check (:mod:`rfp_twin.twin.studies.runner`). :mod:`rfp_twin.twin.studies.parse` reads
 and validates the file into the :class:`Study` defined here.
 
 Study file
@@ -56,7 +56,7 @@ with the base seed as entropy and (a stable SHA-256 hash of the point, the index
 key, so reruns, other machines and other worker counts reproduce every trial. The seed
 is stored: ``rfp-twin plan --layout hex:N --buffer B --step D --algorithm A --seed SEED``
 replays a hex-grid trial exactly. The trial key (hash of point, base seed, index) is the
-resume key (:mod:`twin.studies.store`).
+resume key (:mod:`rfp_twin.twin.studies.store`).
 
 Units: mm, deg, s.
 """
@@ -71,9 +71,9 @@ from typing import Any
 
 import numpy as np
 
-from models.errors import RfpError
-from models.layout import Layout
-from models.robot import RobotSpec
+from rfp_twin.models.errors import RfpError
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import RobotSpec
 
 __all__ = ["StudyError", "StudyPoint", "Trial", "Study", "STUDY_KEYS", "GRID_KEYS",
            "GRID_DEFAULTS", "PARAM_COLUMNS", "point_layout"]

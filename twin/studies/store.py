@@ -28,7 +28,7 @@ import pyarrow as pa
 import pyarrow.dataset as pads
 import pyarrow.parquet as pq
 
-from twin.studies.spec import Study, StudyError
+from rfp_twin.twin.studies.spec import Study, StudyError
 
 __all__ = ["SCHEMA", "RESULTS", "STUDY_COPY", "COMPACT_AT", "COMPACT_PREFIX", "default_out_dir",
            "results_dir", "write_row", "write_study_copy", "data_files", "read_results",

@@ -20,11 +20,11 @@ calibrate
 writer
     :func:`write_report`: markdown, JSON and figures.
 """
-from validation.buffer.calibrate import DEFAULT_BUFFERS_MM, calibrate_buffer
-from validation.buffer.model2d import pair_segment_distances
-from validation.buffer.report import BufferCalibration
-from validation.buffer.sampling import neighbour_directions
-from validation.buffer.writer import write_report
+from rfp_twin.validation.buffer.calibrate import DEFAULT_BUFFERS_MM, calibrate_buffer
+from rfp_twin.validation.buffer.model2d import pair_segment_distances
+from rfp_twin.validation.buffer.report import BufferCalibration
+from rfp_twin.validation.buffer.sampling import neighbour_directions
+from rfp_twin.validation.buffer.writer import write_report
 
 __all__ = ["BufferCalibration", "calibrate_buffer", "neighbour_directions", "write_report",
            "pair_segment_distances", "DEFAULT_BUFFERS_MM"]

@@ -3,9 +3,9 @@
 Two robots of one design sit at the layout's pitch, robot B in each neighbour direction
 of the layout (modulo 180 deg: the two robots are identical). For a configuration ``c =
 (alpha_A, beta_A, alpha_B, beta_B)`` (deg), ``D2(c; b)`` is the 2D model's distance
-(:mod:`validation.buffer.model2d`; "safe in 2D at buffer b" is ``D2 > 2 b``) and
+(:mod:`rfp_twin.validation.buffer.model2d`; "safe in 2D at buffer b" is ``D2 > 2 b``) and
 ``D3(c)`` the true 3D (solid) distance of the two robots' collision meshes
-(:class:`validation.mesh3d.RobotPair`: lower bounds in numba, FCL where they cannot
+(:class:`rfp_twin.validation.mesh3d.RobotPair`: lower bounds in numba, FCL where they cannot
 decide; "safe in 3D" is ``D3 > 0``). ``required(c)`` is the smallest buffer whose 2D
 model forbids ``c``.
 
@@ -18,13 +18,13 @@ What is computed
     (jittered copies) and a local search (hill climb on ``required`` while staying in
     3D collision, verified with FCL at every step). It is a lower estimate of the true
     supremum (every reported configuration is a verified 3D collision); the beta
-    envelope of the mesh (:meth:`models.geometry.RobotGeometry.beta_envelope_mm`) is an
+    envelope of the mesh (:meth:`rfp_twin.models.geometry.RobotGeometry.beta_envelope_mm`) is an
     upper bound when only the beta arms can touch.
 (b) *Space wasted by the 2D model*: per buffer, among the uniform samples the 2D model
     forbids (``D2 <= 2 b``), the fraction that is safe in 3D. Uniform samples of the
     joint ranges measure volume, so this is the share of the forbidden configuration
     space that the 3D robot could use.
-(c) *Angular errors* (Monte Carlo, :mod:`validation.buffer.montecarlo`): ``b_p``, the
+(c) *Angular errors* (Monte Carlo, :mod:`rfp_twin.validation.buffer.montecarlo`): ``b_p``, the
     ``p``-quantile of the buffer ``B(e)`` one draw ``e`` of the errors calls for, keeps
     3D safety with probability ``p`` (over the angular errors); ``b_p - b*`` is the
     angular-error share of the buffer, set beside the paper's analytic ``sigma_eps =
@@ -41,16 +41,16 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from models.errors import SpecError, field_error
-from models.geometry import RobotGeometry, geometry_for_spec
-from models.layout import Layout
-from models.robot import RobotSpec
-from validation.buffer.model2d import pair_segment_distances, required_buffer
-from validation.buffer.montecarlo import ErrorBuffer, corner_errors, error_buffers
-from validation.buffer.report import BufferCalibration
-from validation.buffer.sampling import (climb, distinct_top, neighbour_directions,
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.models.geometry import RobotGeometry, geometry_for_spec
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import RobotSpec
+from rfp_twin.validation.buffer.model2d import pair_segment_distances, required_buffer
+from rfp_twin.validation.buffer.montecarlo import ErrorBuffer, corner_errors, error_buffers
+from rfp_twin.validation.buffer.report import BufferCalibration
+from rfp_twin.validation.buffer.sampling import (climb, distinct_top, neighbour_directions,
                                         uniform_configurations)
-from validation.mesh3d import LinkModels, RobotPair
+from rfp_twin.validation.mesh3d import LinkModels, RobotPair
 
 #: Buffers at which the wasted space is tabulated by default, mm.
 DEFAULT_BUFFERS_MM = tuple(np.round(np.arange(1.0, 4.0001, 0.1), 3))
@@ -81,7 +81,7 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
     ----------
     spec : RobotSpec
     geometry : RobotGeometry, optional
-        Default :func:`models.geometry.geometry_for_spec`.
+        Default :func:`rfp_twin.models.geometry.geometry_for_spec`.
     layout : Layout, optional
         Supplies the pitch and the neighbour directions (default a hex grid of the
         spec's pitch).

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from models.robot import RobotSpec
-from validation.numerics import beta_segment, segment_distance
+from rfp_twin.models.robot import RobotSpec
+from rfp_twin.validation.numerics import beta_segment, segment_distance
 
 
 @njit(cache=True)

@@ -5,7 +5,7 @@ A commanded configuration ``c`` is reached as ``c + e``, ``e`` uniform in ``[-ea
 2021, Sect. 6). For one draw ``e``, every 2D-safe ``c`` stays 3D-safe iff ``b >= B(e) =
 max required(c' - e)`` over the 3D-colliding actual configurations ``c'``. ``B(e)`` is
 estimated from candidate configurations (3D-colliding, near the largest ``required``)
-and a local search from the best few (:func:`validation.buffer.sampling.climb`).
+and a local search from the best few (:func:`rfp_twin.validation.buffer.sampling.climb`).
 Units: mm, deg.
 """
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from validation.buffer.sampling import climb, distinct_top
+from rfp_twin.validation.buffer.sampling import climb, distinct_top
 
 
 class ErrorBuffer:

@@ -1,8 +1,8 @@
 """The buffer calibration's result, :class:`BufferCalibration` (mm, deg, s).
 
 A plain dataclass with a JSON form (``to_dict``: non-finite numbers as ``None``) and a
-terminal summary (``table``); :func:`validation.buffer.calibrate_buffer` fills it and
-:func:`validation.buffer.write_report` writes it out.
+terminal summary (``table``); :func:`rfp_twin.validation.buffer.calibrate_buffer` fills it and
+:func:`rfp_twin.validation.buffer.write_report` writes it out.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import numpy as np
 
 @dataclass
 class BufferCalibration:
-    """Result of :func:`validation.buffer.calibrate_buffer` (mm, deg, s).
+    """Result of :func:`rfp_twin.validation.buffer.calibrate_buffer` (mm, deg, s).
 
     Attributes
     ----------

@@ -9,8 +9,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.stats import qmc
 
-from models.layout import Layout
-from models.robot import RobotSpec
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import RobotSpec
 
 
 def neighbour_directions(layout: Layout | None, pitch_mm: float) -> tuple[float, np.ndarray]:

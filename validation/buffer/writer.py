@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from models.files import atomic_write_text
-from validation.buffer.report import BufferCalibration
+from rfp_twin.models.files import atomic_write_text
+from rfp_twin.validation.buffer.report import BufferCalibration
 
 
 def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "") -> dict:

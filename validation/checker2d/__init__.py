@@ -1,4 +1,4 @@
-"""Independent dense 2D collision check of a :class:`models.trajectory.Trajectory`.
+"""Independent dense 2D collision check of a :class:`rfp_twin.models.trajectory.Trajectory`.
 
 Checks every robot-robot and robot-fiducial pair that can touch against the capsule
 model of Sayres et al. 2021 (Eq. 3), with a bound between samples so that no collision,
@@ -16,13 +16,13 @@ check
     :func:`check_trajectory`: candidate pairs (k-d tree), kernel inputs, the report.
 
 Independence: this package imports ``models`` (robot, layout, errors, the trajectory
-data type) and :mod:`validation.numerics` (its own segment distance), never
-``planners`` nor the planner's distance code :mod:`models.geometry2d`.
+data type) and :mod:`rfp_twin.validation.numerics` (its own segment distance), never
+``planners`` nor the planner's distance code :mod:`rfp_twin.models.geometry2d`.
 """
-from validation.checker2d.check import check_trajectory
-from validation.checker2d.report import CheckReport, Collision
-from validation.checker2d.speeds import coarse_grid, speed_bounds_mm_s
-from validation.numerics import segment_distance_np
+from rfp_twin.validation.checker2d.check import check_trajectory
+from rfp_twin.validation.checker2d.report import CheckReport, Collision
+from rfp_twin.validation.checker2d.speeds import coarse_grid, speed_bounds_mm_s
+from rfp_twin.validation.numerics import segment_distance_np
 
 __all__ = [
     "Collision",

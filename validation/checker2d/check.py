@@ -16,9 +16,9 @@ whose bases are within ``2 (l_alpha + r_max + buffer)`` (robot pairs) or
 a k-d tree, not with the planner's neighbour lists.
 
 The checked span is ``[T0, T1]``, ``T0 = min(0, first breakpoint)``, ``T1`` the last
-breakpoint (:func:`validation.numerics.time_span`). Robots of the layout that the
+breakpoint (:func:`rfp_twin.validation.numerics.time_span`). Robots of the layout that the
 trajectory does not list are not checked. The dense check itself (why no collision can
-slip between samples) is :mod:`validation.checker2d.kernel`.
+slip between samples) is :mod:`rfp_twin.validation.checker2d.kernel`.
 """
 from __future__ import annotations
 
@@ -27,13 +27,13 @@ import time
 import numpy as np
 from scipy.spatial import cKDTree
 
-from models.layout import Layout
-from models.robot import RobotSpec
-from models.trajectory import Trajectory
-from validation.checker2d.kernel import check_pairs
-from validation.checker2d.report import CheckReport, Collision
-from validation.checker2d.speeds import arm_geometry, checked_buffer, robot_speeds
-from validation.numerics import (REACH_TOL_MM, axis_csr, checked_float, pairs_within,
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import RobotSpec
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.validation.checker2d.kernel import check_pairs
+from rfp_twin.validation.checker2d.report import CheckReport, Collision
+from rfp_twin.validation.checker2d.speeds import arm_geometry, checked_buffer, robot_speeds
+from rfp_twin.validation.numerics import (REACH_TOL_MM, axis_csr, checked_float, pairs_within,
                                  robot_bases, time_span)
 
 

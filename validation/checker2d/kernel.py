@@ -2,12 +2,12 @@
 
 Inputs are plain arrays: per pair ``(i, j)`` robot indices (``j = -1`` for a fiducial
 at ``(fx, fy)``, mm) and its threshold (mm); the bases (mm); the trajectory as per-axis
-CSR arrays (:func:`validation.numerics.axis_csr`, angles rad, |slope| rad/s); per robot
+CSR arrays (:func:`rfp_twin.validation.numerics.axis_csr`, angles rad, |slope| rad/s); per robot
 the largest and the mean point speed of its collision segment (mm/s,
-:mod:`validation.checker2d.speeds`). Times in s.
+:mod:`rfp_twin.validation.checker2d.speeds`). Times in s.
 
 *Interval bound.* ``D`` (the segment distance of a pair) is Lipschitz with ``L = V_i +
-V_j`` (:mod:`validation.checker2d.speeds`). On ``[t0, t1]``, ``h = t1 - t0``, with
+V_j`` (:mod:`rfp_twin.validation.checker2d.speeds`). On ``[t0, t1]``, ``h = t1 - t0``, with
 sampled ``D0 = D(t0)`` and ``D1 = D(t1)``: ``D(t) >= max(D0 - L (t - t0), D1 - L (t1 -
 t))``. The right side is smallest where the two lines cross, so for every ``t`` in the
 interval::
@@ -62,7 +62,7 @@ import math
 import numpy as np
 from numba import njit
 
-from validation.numerics import (STACK, beta_segment, interp_angle, max_rate, push,
+from rfp_twin.validation.numerics import (STACK, beta_segment, interp_angle, max_rate, push,
                                  push_halves, segment_distance)
 
 #: Upper bound on coarse intervals per pair (memory guard; refinement keeps it safe).

@@ -1,7 +1,7 @@
 """What the 2D check reports: :class:`Collision` and :class:`CheckReport` (mm, s).
 
 Plain dataclasses with JSON (``to_dict``, ``inf`` as ``None``) and terminal (``table``)
-forms; :func:`validation.checker2d.check_trajectory` fills them.
+forms; :func:`rfp_twin.validation.checker2d.check_trajectory` fills them.
 """
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from validation.numerics import PlainRecord, collision_table, json_float
+from rfp_twin.validation.numerics import PlainRecord, collision_table, json_float
 
 #: Columns of the terminal table of collisions: (title, attribute, format).
 _COLUMNS = (("kind", "kind", "<9"), ("robot", "robot_a", ">7"), ("other", "other", ">7"),
@@ -59,7 +59,7 @@ class Collision(PlainRecord):
 
 @dataclass
 class CheckReport:
-    """Result of :func:`validation.checker2d.check_trajectory`.
+    """Result of :func:`rfp_twin.validation.checker2d.check_trajectory`.
 
     Attributes
     ----------

@@ -14,21 +14,21 @@ where it holds its first/last angle). So every material point of the collision s
 moves at most ``V_i = l_alpha A_i + r_max (A_i + B_i)`` mm/s. The bound comes from the
 trajectory itself, not from the spec speed. A jump (two breakpoints at the same time
 with different angles) has no finite bound and is rejected with
-:class:`models.errors.TrajectoryError`.
+:class:`rfp_twin.models.errors.TrajectoryError`.
 
 *Lipschitz distance.* Let ``(r*, q*)`` be the closest material points at time ``t'``.
 Then ``D(t) <= |P_i(r*, t) - P_j(q*, t)| <= D(t') + (V_i + V_j) |t - t'|``, and the same
 with ``t, t'`` swapped: ``D`` is Lipschitz with ``L = V_i + V_j`` (``V_j = 0`` for a
-fiducial). :mod:`validation.checker2d.kernel` turns this into the interval bound.
+fiducial). :mod:`rfp_twin.validation.checker2d.kernel` turns this into the interval bound.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from models.robot import RobotSpec
-from models.trajectory import Trajectory
-from validation.checker2d.kernel import n_intervals
-from validation.numerics import axis_csr, checked_float, peak_and_travel, time_span
+from rfp_twin.models.robot import RobotSpec
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.validation.checker2d.kernel import n_intervals
+from rfp_twin.validation.numerics import axis_csr, checked_float, peak_and_travel, time_span
 
 
 def arm_geometry(spec: RobotSpec, buffer_mm: float) -> tuple[float, float, float, float]:
@@ -39,7 +39,7 @@ def arm_geometry(spec: RobotSpec, buffer_mm: float) -> tuple[float, float, float
 
 
 def checked_buffer(buffer_mm) -> float:
-    """``buffer_mm`` as a float, or a :class:`models.errors.SpecError` (finite, > 0)."""
+    """``buffer_mm`` as a float, or a :class:`rfp_twin.models.errors.SpecError` (finite, > 0)."""
     return checked_float(buffer_mm, "buffer_mm", "a finite number > 0 mm", "check_trajectory")
 
 
@@ -88,7 +88,7 @@ def coarse_grid(traj: Trajectory, spec: RobotSpec, buffer_mm: float, robot_a: in
     Parameters
     ----------
     traj, spec, buffer_mm
-        As for :func:`validation.checker2d.check_trajectory`.
+        As for :func:`rfp_twin.validation.checker2d.check_trajectory`.
     robot_a, robot_b : int
         Robot ids; ``robot_b=None`` for a robot-fiducial pair.
 

@@ -1,4 +1,4 @@
-"""3D validation of a :class:`models.trajectory.Trajectory` against the robot meshes (FCL).
+"""3D validation of a :class:`rfp_twin.models.trajectory.Trajectory` against the robot meshes (FCL).
 
 Checks every pair of links that can touch against the convex collision pieces MuJoCo
 collides, with a bound between samples so that no contact, however brief, can slip
@@ -24,10 +24,10 @@ check
 pair
     :class:`RobotPair`: two robots, many configurations (buffer calibration).
 """
-from validation.mesh3d.check import validate_trajectory
-from validation.mesh3d.links import LinkModels, fit_capsule, link_pose
-from validation.mesh3d.pair import RobotPair
-from validation.mesh3d.report import Check3DReport, Collision3D, PairDistance
+from rfp_twin.validation.mesh3d.check import validate_trajectory
+from rfp_twin.validation.mesh3d.links import LinkModels, fit_capsule, link_pose
+from rfp_twin.validation.mesh3d.pair import RobotPair
+from rfp_twin.validation.mesh3d.report import Check3DReport, Collision3D, PairDistance
 
 __all__ = [
     "RobotPair",

@@ -1,7 +1,7 @@
 """Lower bounds of the 3D distance of two posed links (numba kernels; mm, rad).
 
 Every convex collision piece is enclosed twice, in the frame of its link
-(:class:`validation.mesh3d.links.LinkModels`):
+(:class:`rfp_twin.validation.mesh3d.links.LinkModels`):
 
 * a vertical *capsule prism*: a 2D capsule (segment + radius, fitted to the piece's
   vertices so that every vertex is inside; a capsule is convex, so the whole piece is)
@@ -31,10 +31,10 @@ import math
 import numpy as np
 from numba import njit
 
-from models.geometry import LINKS
-from validation.numerics import clamp01, segment_distance
+from rfp_twin.models.geometry import LINKS
+from rfp_twin.validation.numerics import clamp01, segment_distance
 
-#: Link kind codes used inside the kernels (index into :data:`models.geometry.LINKS`).
+#: Link kind codes used inside the kernels (index into :data:`rfp_twin.models.geometry.LINKS`).
 BODY, ALPHA, BETA, FIDUCIAL = (LINKS.index(n) for n in ("body", "alpha", "beta", "fiducial"))
 
 

@@ -3,15 +3,15 @@
 Objects are the robots of the trajectory and the fiducials (``obj_rob[o]`` the robot
 index, ``-1`` for a fiducial; bases ``obj_x``, ``obj_y`` mm). A link pair ``p`` is link
 kind ``lp_ka[p]`` of object ``lp_oa[p]`` and ``lp_kb[p]`` of ``lp_ob[p]``. The
-trajectory comes as per-axis CSR arrays (:func:`validation.numerics.axis_csr`; rad,
+trajectory comes as per-axis CSR arrays (:func:`rfp_twin.validation.numerics.axis_csr`; rad,
 rad/s), times in s.
 
 Why no collision can slip between samples
 -----------------------------------------
 *Speed bound.* A point of a link moves at most ``rad_alpha[kind] |a'| + rad_beta[kind]
-|b'|`` (:class:`validation.mesh3d.links.LinkModels`). The trajectory is piecewise
+|b'|`` (:class:`rfp_twin.validation.mesh3d.links.LinkModels`). The trajectory is piecewise
 linear, so on a window ``|a'|``, ``|b'|`` are at most the largest breakpoint slope
-overlapping the window (:func:`validation.numerics.max_rate`; zero outside the robot's
+overlapping the window (:func:`rfp_twin.validation.numerics.max_rate`; zero outside the robot's
 time range). Jumps have no bound and are refused when the CSR arrays are built.
 
 *Lipschitz distance.* With ``V_A``, ``V_B`` those bounds, the distance between two
@@ -27,7 +27,7 @@ lb``. Since ``D >= C``, ``D(t) >= max(lb_D, lb_C)`` on the interval.
 
 Kernels
 -------
-:func:`capsule_min` (step 1 of :mod:`validation.mesh3d.check`): per link pair, ``C`` on
+:func:`capsule_min` (step 1 of :mod:`rfp_twin.validation.mesh3d.check`): per link pair, ``C`` on
 a uniform grid (spacing such that the pair's mean speed moves ``coarse_mm``), then
 bisection while the interval bound can be below the pair's smallest sample minus the
 tolerance: ``Cmin``, its time and a certificate. :func:`capsule_suspects` (step 3): the
@@ -40,8 +40,8 @@ import math
 import numpy as np
 from numba import njit
 
-from validation.mesh3d.bounds import link_bound, pose, store_pose_bounds
-from validation.numerics import STACK, interp_angle, max_rate, push, push_halves
+from rfp_twin.validation.mesh3d.bounds import link_bound, pose, store_pose_bounds
+from rfp_twin.validation.numerics import STACK, interp_angle, max_rate, push, push_halves
 
 #: Upper bound on coarse intervals per link pair.
 MAX_COARSE = 1_000_000

@@ -4,15 +4,15 @@ What is reported (:class:`Check3DReport`)
 -----------------------------------------
 * For every *pair* that can touch (robot-robot, robot-fiducial: some link of one can
   come within ``min_gap_mm`` of some link of the other for some joint angles,
-  :mod:`validation.mesh3d.scene`), the smallest 3D distance over the whole motion (the
+  :mod:`rfp_twin.validation.mesh3d.scene`), the smallest 3D distance over the whole motion (the
   smallest exact FCL distance sampled, an upper bound of the true minimum, within
   ``distance_tol_mm + distance_rel_tol * clearance`` of it), its time and the two links.
 * Every 3D collision: time interval, robots / fiducial, links, as :class:`Collision3D`.
   A "collision" is a distance ``<= min_gap_mm`` (default 0: contact). Solid overlap
-  counts even when no surfaces cross (:mod:`validation.mesh3d.exact`).
+  counts even when no surfaces cross (:mod:`rfp_twin.validation.mesh3d.exact`).
 
 An interval is *cleared* (no collision inside) when the interval bound of
-:mod:`validation.mesh3d.broadphase` is ``> min_gap_mm``. Every part of ``[T0, T1]`` is
+:mod:`rfp_twin.validation.mesh3d.broadphase` is ``> min_gap_mm``. Every part of ``[T0, T1]`` is
 either cleared, or bisected until it is, or reported: as a collision when a sample is
 ``<= min_gap_mm``, or (``conservative = True``) when an interval no longer than
 ``resolution_s`` still cannot be cleared. No instant is left unexamined, so a contact,
@@ -52,18 +52,18 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from models.errors import SpecError, field_error
-from models.geometry import LINKS, RobotGeometry, geometry_for_spec
-from models.layout import Layout
-from models.robot import RobotSpec
-from models.trajectory import Trajectory
-from validation.mesh3d.broadphase import (bound_at, capsule_min, capsule_suspects,
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.models.geometry import LINKS, RobotGeometry, geometry_for_spec
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import RobotSpec
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.validation.mesh3d.broadphase import (bound_at, capsule_min, capsule_suspects,
                                           poses_and_bounds)
-from validation.mesh3d.exact import ExactDistance
-from validation.mesh3d.links import LinkModels
-from validation.mesh3d.report import Check3DReport, Collision3D, PairDistance
-from validation.mesh3d.scene import Scene
-from validation.numerics import axis_csr, checked_float, time_span
+from rfp_twin.validation.mesh3d.exact import ExactDistance
+from rfp_twin.validation.mesh3d.links import LinkModels
+from rfp_twin.validation.mesh3d.report import Check3DReport, Collision3D, PairDistance
+from rfp_twin.validation.mesh3d.scene import Scene
+from rfp_twin.validation.numerics import axis_csr, checked_float, time_span
 
 #: Samples whose capsule bound is within this of the current cut also get the (slower,
 #: tighter) hull-prism bound, mm.
@@ -90,7 +90,7 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
         Robots are matched to the layout by id; layout robots it does not list are
         not checked.
     spec : RobotSpec
-        Used for the default geometry (:func:`models.geometry.geometry_for_spec`).
+        Used for the default geometry (:func:`rfp_twin.models.geometry.geometry_for_spec`).
     layout : Layout
         Robot bases and fiducials (fiducials are checked against every robot).
     geometry : RobotGeometry or LinkModels, optional
@@ -279,7 +279,7 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
     min_d = min([pd.min_distance_mm for pd in pairs] + [c.min_distance_mm for c in collisions],
                 default=math.inf)
     return Check3DReport(
-        min_gap_mm=thr, geometry=str(models.geometry.params.source), n_robots=scene.n_robots,
+        min_gap_mm=thr, geometry=str(rfp_twin.models.geometry.params.source), n_robots=scene.n_robots,
         n_fiducials=scene.n_fiducials, n_pairs=n_groups, n_link_pairs=n_lp,
         duration_s=t_hi - t_lo, pairs=pairs, min_distance_mm=float(min_d),
         link_kind_min_mm=kind_min, link_kind_lower_bound_mm=kind_lb, collisions=collisions,

@@ -5,7 +5,7 @@ has a positive surface distance. Whenever the capsule bound of a piece pair is `
 (their enclosing prisms overlap, the only case in which one can contain the other) and
 FCL says ``> 0``, one vertex of each piece is tested against the other's convex hull
 (half-spaces); containment gives distance 0. So the distance returned is the *solid*
-distance, which the Lipschitz argument of :mod:`validation.mesh3d.broadphase` also
+distance, which the Lipschitz argument of :mod:`rfp_twin.validation.mesh3d.broadphase` also
 covers. FCL gives no penetration depth: inside a collision the distance is 0.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ import time
 import fcl
 import numpy as np
 
-from validation.mesh3d.links import LinkModels
+from rfp_twin.validation.mesh3d.links import LinkModels
 
 #: Slack (mm) under which a containment test is run (capsule bound <= this).
 CONTAIN_SLACK = 1e-9

@@ -1,8 +1,8 @@
 """Link models of one robot design: capsules, hulls, speed radii, FCL BVH per piece.
 
 FCL sees exactly the meshes MuJoCo collides: the convex collision pieces of every link
-of :class:`models.geometry.RobotGeometry` (``Link.collision``, the pieces
-:mod:`models.mjcf` turns into collision geoms). Each piece becomes one FCL ``BVHModel``
+of :class:`rfp_twin.models.geometry.RobotGeometry` (``Link.collision``, the pieces
+:mod:`rfp_twin.models.mjcf` turns into collision geoms). Each piece becomes one FCL ``BVHModel``
 (OBBRSS), built once per link *kind* (``body``, ``alpha``, ``beta``, ``fiducial``):
 every robot shares them, only transforms differ. A robot is the links ``body``,
 ``alpha`` and ``beta``; a fiducial the link ``fiducial``. (The MuJoCo model gives the
@@ -27,9 +27,9 @@ import fcl
 import numpy as np
 from scipy.spatial import ConvexHull
 
-from models.geometry import LINKS, RobotGeometry
-from validation.mesh3d.bounds import pose
-from validation.numerics import POINT_EPS2, REACH_TOL_MM
+from rfp_twin.models.geometry import LINKS, RobotGeometry
+from rfp_twin.validation.mesh3d.bounds import pose
+from rfp_twin.validation.numerics import POINT_EPS2, REACH_TOL_MM
 
 #: Links of a robot / of a fiducial, and their kind codes (index into ``LINKS``).
 ROBOT_LINKS = ("body", "alpha", "beta")
@@ -110,7 +110,7 @@ class LinkModels:
     ----------
     geometry : RobotGeometry
     kind_ptr : (5,) int64
-        Pieces of link kind ``k`` (index into :data:`models.geometry.LINKS`) are
+        Pieces of link kind ``k`` (index into :data:`rfp_twin.models.geometry.LINKS`) are
         ``kind_ptr[k]:kind_ptr[k + 1]``.
     cap : (P, 5) float64
         Capsule of each piece in its link frame: ``x0, y0, x1, y1, radius``, mm.

@@ -1,10 +1,10 @@
 """Two robots of one design, many configurations: bounds, exact distances, collisions.
 
-What the buffer calibration (:mod:`validation.buffer`) compares the 2D model with: robot
+What the buffer calibration (:mod:`rfp_twin.validation.buffer`) compares the 2D model with: robot
 A's base at the origin, robot B's at ``offset_xy`` (mm); configurations are ``(n, 4)``
 arrays of degrees ``(alpha_A, beta_A, alpha_B, beta_B)``. Lower bounds come from the
-numba kernels of :mod:`validation.mesh3d.bounds`; FCL is called only where they cannot
-decide (:mod:`validation.mesh3d.exact`).
+numba kernels of :mod:`rfp_twin.validation.mesh3d.bounds`; FCL is called only where they cannot
+decide (:mod:`rfp_twin.validation.mesh3d.exact`).
 """
 from __future__ import annotations
 
@@ -13,11 +13,11 @@ import math
 import numpy as np
 from numba import njit
 
-from models.errors import SpecError, field_error
-from models.geometry import LINKS
-from validation.mesh3d.bounds import link_bound, pose, store_pose_bounds
-from validation.mesh3d.exact import ExactDistance
-from validation.mesh3d.links import ROBOT_KINDS, LinkModels
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.models.geometry import LINKS
+from rfp_twin.validation.mesh3d.bounds import link_bound, pose, store_pose_bounds
+from rfp_twin.validation.mesh3d.exact import ExactDistance
+from rfp_twin.validation.mesh3d.links import ROBOT_KINDS, LinkModels
 
 
 @njit(cache=True)

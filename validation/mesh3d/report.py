@@ -3,14 +3,14 @@
 :class:`Check3DReport` (with ``ok``, ``to_dict`` for JSON, where non-finite numbers
 become ``None``, and ``table`` for the terminal) holds one :class:`PairDistance` per
 candidate pair and one :class:`Collision3D` per contact interval of two links;
-:func:`validation.mesh3d.validate_trajectory` fills it.
+:func:`rfp_twin.validation.mesh3d.validate_trajectory` fills it.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
 
-from validation.numerics import PlainRecord, collision_table, json_float
+from rfp_twin.validation.numerics import PlainRecord, collision_table, json_float
 
 #: Columns of the terminal table of collisions: (title, attribute, format).
 _COLUMNS = (("kind", "kind", "<9"), ("robot", "robot_a", ">7"), ("link", "link_a", ">7"),
@@ -69,7 +69,7 @@ class PairDistance:
 
 @dataclass
 class Check3DReport:
-    """Result of :func:`validation.mesh3d.validate_trajectory`.
+    """Result of :func:`rfp_twin.validation.mesh3d.validate_trajectory`.
 
     Attributes
     ----------

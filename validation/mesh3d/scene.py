@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.layout import Layout
-from models.trajectory import Trajectory
-from validation.mesh3d.links import FIDUCIAL_KINDS, ROBOT_KINDS, LinkModels
-from validation.numerics import pairs_within, peak_and_travel, robot_bases
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.validation.mesh3d.links import FIDUCIAL_KINDS, ROBOT_KINDS, LinkModels
+from rfp_twin.validation.numerics import pairs_within, peak_and_travel, robot_bases
 
 
 class Scene:
@@ -75,7 +75,7 @@ class Scene:
         """Per object and link kind, the largest and the mean point speed, (n_obj, 4) mm/s.
 
         ``alpha_csr`` / ``beta_csr``: ``(ptr, times, rate)`` of
-        :func:`validation.numerics.axis_csr`; the mean uses the travel over ``span`` s.
+        :func:`rfp_twin.validation.numerics.axis_csr`; the mean uses the travel over ``span`` s.
         Fiducials do not move (rows of zeros).
         """
         n_obj, n_r = len(self.obj_rob), self.n_robots

@@ -2,7 +2,7 @@
 
 Every backend is a module of this package with one function, ``solve_law(problem) ->
 TimeLaw | None``, that solves a :class:`TimingProblem` (the constraints of
-:mod:`planners.timing.kernel` on the group's grid) and returns the time law, or None
+:mod:`rfp_twin.planners.timing.kernel` on the group's grid) and returns the time law, or None
 where it finds no solution. All solve the same discretised problem on the same
 gridpoints:
 
@@ -11,9 +11,9 @@ gridpoints:
   rows; it solves every group of every plan measured (~390-460 groups per 500-robot
   SDSS-V fold, greedy and Markov) with laws equal to the kernel's within 2e-5 of the
   duration (benchmarks/RESULTS.md, "Timing backends");
-- ``"numba"`` (:mod:`.numba_kernel`): the kernel :func:`planners.timing.kernel.topp_kernel`,
+- ``"numba"`` (:mod:`.numba_kernel`): the kernel :func:`rfp_twin.planners.timing.kernel.topp_kernel`,
   about 0.3 ms per group, 10-15x faster than the library for the same laws; it always
-  finds a law, and :func:`planners.timing.time_group` also uses it for groups the library
+  finds a law, and :func:`rfp_twin.planners.timing.time_group` also uses it for groups the library
   finds no solution for (``TimeLaw.solver == "fallback"``) and for groups too large for
   the library (``"numba-large"``).
 
@@ -37,8 +37,8 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from models.errors import SpecError, field_error
-from planners.timing.law import TimeLaw
+from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.planners.timing.law import TimeLaw
 
 __all__ = ["BACKENDS", "DEFAULT_BACKEND", "TimingProblem", "get_backend"]
 
@@ -46,7 +46,7 @@ __all__ = ["BACKENDS", "DEFAULT_BACKEND", "TimingProblem", "get_backend"]
 _MODULES = {"toppra": "toppra_library", "numba": "numba_kernel"}
 #: Names of the backends.
 BACKENDS = tuple(_MODULES)
-#: Backend of :func:`planners.timing.time_group` (and of the post-processing pipeline).
+#: Backend of :func:`rfp_twin.planners.timing.time_group` (and of the post-processing pipeline).
 DEFAULT_BACKEND = "toppra"
 
 

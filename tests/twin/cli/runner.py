@@ -7,6 +7,6 @@ from pathlib import Path
 
 
 def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    """``rfp-twin ARGS`` (as ``python -m twin.cli``); text output, 300 s limit."""
-    return subprocess.run([sys.executable, "-m", "twin.cli", *args], capture_output=True,
+    """``rfp-twin ARGS`` (as ``python -m rfp_twin.twin.cli``); text output, 300 s limit."""
+    return subprocess.run([sys.executable, "-m", "rfp_twin.twin.cli", *args], capture_output=True,
                           text=True, cwd=cwd, timeout=300)

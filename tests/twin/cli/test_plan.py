@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models.layout import Layout
-from models.robot import load_spec
-from models.trajectory import Trajectory
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.models.trajectory import Trajectory
 from tests.twin.cli.runner import run
 
 

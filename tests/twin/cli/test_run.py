@@ -31,8 +31,8 @@ def test_simulate_and_model_export(tmp_path):
 
 
 def test_load_run_reads_a_run_folder_both_ways(tmp_path):
-    from models.errors import RfpError
-    from twin.run_dir import LAYOUT, load_run
+    from rfp_twin.models.errors import RfpError
+    from rfp_twin.twin.run_dir import LAYOUT, load_run
 
     out = tmp_path / "run"
     assert run("plan", "--layout", "hex:7", "--seed", "2", "--out", str(out)).returncode == 0

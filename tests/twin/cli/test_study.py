@@ -6,8 +6,8 @@ from typer.testing import CliRunner
 from tests.twin.cli.runner import run
 from tests.twin.studies.builders import TINY
 from tests.twin.studies.test_cluster import free_port
-from twin.cli.study import study_app
-from twin.studies import cluster
+from rfp_twin.twin.cli.study import study_app
+from rfp_twin.twin.studies import cluster
 
 
 def test_run_report_and_errors(tmp_path):

@@ -1,6 +1,6 @@
 """`rfp-twin validate` and `rfp-twin calibrate-buffer` (twin/cli/validate.py).
 
-The commands are mounted on a fresh typer app with ``register`` (as twin.cli does)
+The commands are mounted on a fresh typer app with ``register`` (as rfp_twin.twin.cli does)
 and run with typer's CliRunner; run folders are built by hand (spec, layout,
 trajectory), so a colliding motion can be checked too.
 """
@@ -14,12 +14,12 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from models.geometry import geometry_for_spec
-from models.layout import Layout
-from models.robot import load_spec
-from models.trajectory import Trajectory
-from twin.run_dir import LAYOUT, ROBOT, SUMMARY, TRAJECTORIES, TRAJECTORIES_TO_FOLD, spec_to_toml
-from twin.cli.validate import EXIT_BAD_INPUT, EXIT_COLLISION, VALIDATION_JSON, register
+from rfp_twin.models.geometry import geometry_for_spec
+from rfp_twin.models.layout import Layout
+from rfp_twin.models.robot import load_spec
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.run_dir import LAYOUT, ROBOT, SUMMARY, TRAJECTORIES, TRAJECTORIES_TO_FOLD, spec_to_toml
+from rfp_twin.twin.cli.validate import EXIT_BAD_INPUT, EXIT_COLLISION, VALIDATION_JSON, register
 
 SPEC = load_spec("sdss-v")
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from twin.studies import Study, Trial, load_study
+from rfp_twin.twin.studies import Study, Trial, load_study
 
 #: 2 buffers x 2 algorithms x 2 trials on a 19-robot grid (8 trials, ~1 s of planning).
 TINY = """

@@ -7,8 +7,8 @@ import time
 import pytest
 
 from tests.twin.studies.builders import TINY
-from twin.studies import StudyError, machine_workers, parse_study
-from twin.studies import cluster
+from rfp_twin.twin.studies import StudyError, machine_workers, parse_study
+from rfp_twin.twin.studies import cluster
 
 
 def free_port() -> int:

@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 from tests.twin.studies.builders import made_row
-from twin.studies import RESULTS, parse_study, write_row
-from twin.studies.figures import MAX_SERIES, draw_figures
-from twin.studies.groups import load_groups, varied_params
+from rfp_twin.twin.studies import RESULTS, parse_study, write_row
+from rfp_twin.twin.studies.figures import MAX_SERIES, draw_figures
+from rfp_twin.twin.studies.groups import load_groups, varied_params
 
 MANY = """
 [study]

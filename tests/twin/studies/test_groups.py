@@ -4,8 +4,8 @@ from __future__ import annotations
 import math
 
 from tests.twin.studies.builders import TINY, made_row
-from twin.studies import RESULTS, parse_study, write_row
-from twin.studies.groups import load_groups, make_series, series_label, varied_params
+from rfp_twin.twin.studies import RESULTS, parse_study, write_row
+from rfp_twin.twin.studies.groups import load_groups, make_series, series_label, varied_params
 
 
 def _folder(tmp_path, rows_of):

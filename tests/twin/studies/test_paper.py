@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import math
 
-from twin.studies.groups import Group
-from twin.studies.paper import PAPER_TABLE3, SIM1_CONDITIONS, is_sim1, paper_cell
+from rfp_twin.twin.studies.groups import Group
+from rfp_twin.twin.studies.paper import PAPER_TABLE3, SIM1_CONDITIONS, is_sim1, paper_cell
 
 
 def test_paper_cells_state_the_relation_and_whether_we_agree():

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from tests.twin.studies.builders import study_file
-from twin.studies import StudyError, list_studies, load_study, parse_study
+from rfp_twin.twin.studies import StudyError, list_studies, load_study, parse_study
 
 
 @pytest.mark.parametrize("text, words", [

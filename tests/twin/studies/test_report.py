@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from tests.twin.studies.builders import made_row, study_file
-from twin.studies import RESULTS, StudyError, load_study, run_study, write_row
-from twin.studies.report import FIGURES, PAPER_FIG10, write_report
+from rfp_twin.twin.studies import RESULTS, StudyError, load_study, run_study, write_row
+from rfp_twin.twin.studies.report import FIGURES, PAPER_FIG10, write_report
 
 #: Varies every axis a figure needs (buffer, step, grid size, pitch / reach).
 ALL_AXES = """

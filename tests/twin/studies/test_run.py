@@ -17,9 +17,9 @@ import pytest
 
 from tests.twin.studies.builders import DETERMINISTIC, TINY, rows_by_key, study_file
 from tests.twin.studies.test_cluster import free_port
-from twin.studies import RESULTS, SCHEMA, StudyError, done_keys, load_study, read_results, run_study
-from twin.studies import cluster
-from twin.studies.store import WriterLock
+from rfp_twin.twin.studies import RESULTS, SCHEMA, StudyError, done_keys, load_study, read_results, run_study
+from rfp_twin.twin.studies import cluster
+from rfp_twin.twin.studies.store import WriterLock
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -64,7 +64,7 @@ def test_killed_study_resumes_with_every_trial_exactly_once(tmp_path):
     total = study.n_trials
     out = tmp_path / "out"
     results = out / RESULTS
-    proc = subprocess.Popen([sys.executable, "-m", "twin.cli", "study", "run", str(path), "--out",
+    proc = subprocess.Popen([sys.executable, "-m", "rfp_twin.twin.cli", "study", "run", str(path), "--out",
                              str(out), "--workers", "1", "--threads"], cwd=ROOT,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             start_new_session=True)

@@ -4,8 +4,8 @@ from __future__ import annotations
 import pytest
 
 from tests.twin.studies.builders import DETERMINISTIC, TINY, study_file
-from twin.pipeline import PlanOptions, Reconfiguration
-from twin.studies import SCHEMA, parse_study, run_trial
+from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
+from rfp_twin.twin.studies import SCHEMA, parse_study, run_trial
 
 
 def test_trial_is_the_pipeline_run_its_seed_replays(tmp_path):

@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 from tests.twin.studies.builders import TINY, study_file
-from twin.studies import parse_study
-from twin.studies.spec import point_layout
+from rfp_twin.twin.studies import parse_study
+from rfp_twin.twin.studies.spec import point_layout
 
 
 def test_trial_seeds_and_keys_are_stable_and_distinct(tmp_path):

@@ -5,9 +5,9 @@ import pyarrow.parquet as pq
 import pytest
 
 from tests.twin.studies.builders import TINY, made_row
-from twin.studies import (COMPACT_PREFIX, SCHEMA, StudyError, compact_results, done_keys,
+from rfp_twin.twin.studies import (COMPACT_PREFIX, SCHEMA, StudyError, compact_results, done_keys,
                           parse_study, read_results, results_dir, write_row)
-from twin.studies.store import WriterLock, write_study_copy
+from rfp_twin.twin.studies.store import WriterLock, write_study_copy
 
 
 @pytest.fixture()
