@@ -30,16 +30,16 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import PlanningError, RfpError
-from rfp_twin.models.layout import Layout
+from rfp_twin.models.layout import Layout, default_layout_name, layout_by_name
 from rfp_twin.models.robot import RobotSpec, load_spec
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.offline import apply_offline
 from rfp_twin.planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
-from rfp_twin.planners.solver import ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings, plan_reconfiguration
+from rfp_twin.planners.solver import (ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings,
+                                      plan_reconfiguration)
 from rfp_twin.planners.stepwise import max_displacement
 from rfp_twin.planners.targets import random_targets
 from rfp_twin.planners.timing import BACKENDS, DEFAULT_BACKEND
-from rfp_twin.models.layout import default_layout_name, layout_by_name
 from rfp_twin.twin.outcome import Outcome
 from rfp_twin.validation.checker2d import check_trajectory
 

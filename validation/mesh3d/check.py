@@ -279,7 +279,7 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
     min_d = min([pd.min_distance_mm for pd in pairs] + [c.min_distance_mm for c in collisions],
                 default=math.inf)
     return Check3DReport(
-        min_gap_mm=thr, geometry=str(rfp_twin.models.geometry.params.source), n_robots=scene.n_robots,
+        min_gap_mm=thr, geometry=str(models.geometry.params.source), n_robots=scene.n_robots,
         n_fiducials=scene.n_fiducials, n_pairs=n_groups, n_link_pairs=n_lp,
         duration_s=t_hi - t_lo, pairs=pairs, min_distance_mm=float(min_d),
         link_kind_min_mm=kind_min, link_kind_lower_bound_mm=kind_lb, collisions=collisions,
