@@ -30,7 +30,9 @@ class StepRun:
     n_steps : int, steps taken
     ev_robot, ev_step : (m,) int64, robot index and step of each breakpoint
     ev_angles : (m, 2) deg, (alpha, beta) at each breakpoint
-    seconds : float, wall time of the kernel call, s
+    seconds : float, wall time of every kernel call of this run, s (the calls repeated
+        after a buffer overflow included: what the run cost, not its last call)
+    retries : int, kernel calls repeated because the breakpoint buffers overflowed
     """
 
     final: np.ndarray
@@ -39,6 +41,7 @@ class StepRun:
     ev_step: np.ndarray
     ev_angles: np.ndarray
     seconds: float
+    retries: int = 0
 
 
 def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray, *,
@@ -69,6 +72,7 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
     start = np.ascontiguousarray(start, dtype=np.float64)
     dest = np.ascontiguousarray(dest, dtype=np.float64)
     greed_all = np.full(n, float(greed))
+    seconds, retries = 0.0, 0
     while True:
         ev_robot = np.empty(cap, dtype=np.int64)
         ev_step = np.empty(cap, dtype=np.int64)
@@ -81,8 +85,9 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
             spec.alpha_length_mm, spec.segment_start_mm, geom.seg_end, geom.buffer, limits,
             step_deg, max_steps, md, greed_all, phobia, seed,
             ev_robot, ev_step, ev_angles, final)
-        seconds = time.perf_counter() - t0
+        seconds += time.perf_counter() - t0
         if n_ev >= 0:
             return StepRun(final, int(n_steps), ev_robot[:n_ev], ev_step[:n_ev], ev_angles[:n_ev],
-                           seconds)
+                           seconds, retries)
         cap *= 4
+        retries += 1
