@@ -310,7 +310,12 @@ def spec_origin(spec: RobotSpec) -> str | None:
     """The preset name or ``.toml`` path a spec was loaded from (read off ``spec.source``),
     or None for a spec built in memory or whose file is gone. :func:`load_tables` of it
     gives the spec's other tables (``[geometry]``, ``[actuators]``)."""
-    src = spec.source
+    return source_origin(spec.source)
+
+
+def source_origin(src: str) -> str | None:
+    """The preset name or ``.toml`` path in a spec's ``source`` text (as ``summary.json``
+    keeps it), or None."""
     if src.startswith(_PRESET_PREFIX):
         return src[len(_PRESET_PREFIX):]
     if src.endswith(".toml") and Path(src).is_file():

@@ -65,7 +65,7 @@ class Outcome:
         rc = self.reconfiguration
         o, spec, geom = rc.options, rc.spec, rc.geom
         traj, post = self.trajectory, self.post
-        field_settings = None if o.stepwise else rc.options.field_settings()
+        field_settings = rc.field_settings
         counts = traj.point_counts()
         return {
             "command": command if command is not None else " ".join(["rfp-twin"] + sys.argv[1:]),

@@ -165,6 +165,11 @@ class Reconfiguration:
     def layout(self) -> Layout:
         return self.geom.layout
 
+    @property
+    def field_settings(self):
+        """ApfSettings / CapfSettings of a field planner, None for the stepwise planners."""
+        return self._field
+
     # ------------------------------------------------------------------------ targets
     def target_margin_mm(self) -> float:
         """Clearance beyond Eq. 3 that random targets keep (mm): the stepwise planners'

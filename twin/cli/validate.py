@@ -39,14 +39,14 @@ def _geometry_for_run(geometry: Optional[str], spec, summary: dict):
     TOML file with a ``[geometry]`` table), else the preset / file the run was planned
     with, else the defaults of its spec."""
     from rfp_twin.models.geometry import geometry_for_spec, load_geometry
+    from rfp_twin.models.robot import source_origin
 
     if geometry is not None:
         return load_geometry(geometry, spec), str(geometry)
     src = str(summary.get("spec", ""))
-    if src.startswith("preset "):
-        return load_geometry(src[len("preset "):], spec), src
-    if src.endswith(".toml") and Path(src).is_file():
-        return load_geometry(src, spec), src
+    origin = source_origin(src)
+    if origin is not None:
+        return load_geometry(origin, spec), src
     return geometry_for_spec(spec), f"defaults for {spec.source}"
 
 
