@@ -6,25 +6,35 @@ report's minimum clearance covers the whole trajectory. :func:`verify_neighbours
 which robots the checker pairs (their neighbours are re-checked with them), and
 :func:`subset_trajectory` cuts the trajectory to them. :func:`repair` answers a failed
 round: a collision between two groups merges them (they met at different ``s``); a
-collision inside a group, or with a fiducial, halves the smoothing window, the RDP
-tolerance and the pre-simplification tolerance of the robots involved.
+collision inside a group, or with a fiducial, halves the smoothing window of the robots
+involved on the stretch of plan steps around it (:func:`narrow_locally`, with
+:func:`near_stretch` for the stretch a pair stays near contact), or along the whole path
+for the spline smoothing; the RDP and pre-simplification tolerances are halved only
+once the local window is at its floor (or with the spline).
 
 Units: mm, degrees, plan steps; robots by index in layout order unless named ids.
 """
 from __future__ import annotations
 
 import math
+from typing import Callable
 
 import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.smoothing_local import WindowRegions
+from rfp_twin.planners.timing.grouping import pair_clearance
 
-__all__ = ["ClearanceLedger", "verify_neighbours", "subset_trajectory", "repair"]
+__all__ = ["ClearanceLedger", "verify_neighbours", "subset_trajectory", "repair", "narrow_locally",
+           "near_stretch"]
 
 #: Smallest window / tolerance that tightening goes down to.
 _MIN_WINDOW_STEPS = 1.0
 _MIN_TOLERANCE_DEG = 1e-3
+#: A narrowed stretch of level 1 covers the steps in which the colliding pair is closer
+#: than this in the plan, mm (half that at level 2, ...).
+_NEAR_MM = 1.0
 #: Factor by which a colliding robot's window (then tolerance) shrinks per retry.
 _TIGHTEN = 2.0
 
@@ -88,17 +98,21 @@ def subset_trajectory(traj: Trajectory, sel: np.ndarray) -> Trajectory:
 
 
 def repair(collisions, labels: np.ndarray, id_index: dict, window: np.ndarray, tol: np.ndarray,
-           pre: np.ndarray) -> tuple[set, set, int, int]:
+           pre: np.ndarray, regions: WindowRegions | None = None,
+           step_span: Callable | None = None) -> tuple[set, set, int, int]:
     """Answer a failed round's ``collisions`` in place (see the module docstring).
 
     ``labels`` (n,) group of each robot; ``id_index`` robot id -> index; ``window``,
     ``tol``, ``pre`` (n,) smoothing window (steps), RDP and pre-simplification
     tolerance (deg) per robot, each halved at most down to its floor (the
-    pre-simplification to 0). Returns (groups to redo, robots tightened or at their
-    floor, merges, robots tightened).
+    pre-simplification to 0). With ``regions`` (and ``step_span(collision, margin_mm) ->
+    (u0, u1)``, the plan steps around the collision in which the pair stays closer than
+    ``margin_mm`` in the plan), the window is narrowed only there
+    (:func:`narrow_locally`), not along the whole path. Returns
+    (groups to redo, robots tightened or at their floor, merges, robots tightened).
     """
     dirty: set = set()
-    touched: set = set()
+    touched: dict = {}
     merges = tightened = 0
     for c in collisions:
         a = id_index[c.robot_a]
@@ -110,16 +124,63 @@ def repair(collisions, labels: np.ndarray, id_index: dict, window: np.ndarray, t
                 merges += 1
                 dirty.add(int(labels[a]))
                 continue
-            touched.update((a, b))
+            pair = (a, b)
         else:
-            touched.add(a)
-    for i in touched:
-        # both deviations from the plan: smoothing and simplification
-        if window[i] <= _MIN_WINDOW_STEPS and tol[i] <= _MIN_TOLERANCE_DEG and pre[i] == 0.0:
-            continue
-        window[i] = max(_MIN_WINDOW_STEPS, window[i] / _TIGHTEN)
-        tol[i] = max(_MIN_TOLERANCE_DEG, tol[i] / _TIGHTEN)
-        pre[i] = pre[i] / _TIGHTEN if pre[i] / _TIGHTEN >= _MIN_TOLERANCE_DEG else 0.0
+            pair = (a,)
+        for i in pair:
+            touched.setdefault(i, []).append(c)
+    for i, found in touched.items():
+        # the smoothing deviates from the plan most: narrow its window first (around the
+        # collision with regions, else along the path); the pre-simplification and RDP
+        # tolerances are halved with a global window, or once the local one is at its floor
+        if regions is not None:
+            narrowed = any([narrow_locally(regions, i, step_span, c, window[i]) for c in found])
+        else:
+            narrowed = window[i] > _MIN_WINDOW_STEPS
+            window[i] = max(_MIN_WINDOW_STEPS, window[i] / _TIGHTEN)
+        if regions is None or not narrowed:
+            if not narrowed and tol[i] <= _MIN_TOLERANCE_DEG and pre[i] == 0.0:
+                continue
+            tol[i] = max(_MIN_TOLERANCE_DEG, tol[i] / _TIGHTEN)
+            pre[i] = pre[i] / _TIGHTEN if pre[i] / _TIGHTEN >= _MIN_TOLERANCE_DEG else 0.0
         tightened += 1
         dirty.add(int(labels[i]))
-    return dirty, touched, merges, tightened
+    return dirty, set(touched), merges, tightened
+
+
+def narrow_locally(regions: WindowRegions, i: int, step_span: Callable, collision,
+                   window: float) -> bool:
+    """Narrow robot ``i``'s window around a collision; False at the floor.
+
+    Where the collision lies deep inside a stretch of level ``k`` (at least ``w_{k-1} / 2``
+    from its ends, so every wider level is exact there), the window is halved once more
+    (level ``k + 1``); near an end of a stretch, that stretch is extended (the chord
+    corner of the wider level is what came too close). The new stretch covers the steps
+    in which the pair stays within ``_NEAR_MM / 2^(k-1)`` of contact in the plan (a
+    corner of window ``w`` moves the path by at most ``|slope change| w / 8``, so the
+    margin halves with the window), plus ``w_{k-1} / 2 + w_k`` on each side
+    (:mod:`rfp_twin.planners.smoothing_local`)."""
+    u0, u1 = step_span(collision, 0.0)
+    k = regions.level(i, u0, u1)
+    if k == 0 or regions.inside(i, u0, u1, k, 0.5 * window / _TIGHTEN ** (k - 1)):
+        k += 1
+    wk = window / _TIGHTEN ** k
+    if wk < _MIN_WINDOW_STEPS:
+        return False
+    u0, u1 = step_span(collision, _NEAR_MM / _TIGHTEN ** (k - 1))
+    reach = 0.5 * window / _TIGHTEN ** (k - 1) + wk
+    return regions.add(i, u0 - reach, u1 + reach, k)
+
+
+def near_stretch(plan, geom: ArrayGeometry, i: int, j: int, u0: float, u1: float,
+                 margin_mm: float, reach_steps: float = 4000.0, stride: float = 2.0
+                 ) -> tuple[float, float]:
+    """``[u0, u1]`` (plan steps) widened to the stretch around it in which robots ``i`` and
+    ``j`` stay closer than ``margin_mm`` in the plan (at most ``reach_steps`` each way)."""
+    back = np.clip(u0 - np.arange(0.0, reach_steps, stride), 0.0, plan.n_steps)
+    ahead = np.clip(u1 + np.arange(0.0, reach_steps, stride), 0.0, plan.n_steps)
+    out = []
+    for at in (back, ahead):
+        far = np.flatnonzero(pair_clearance(plan, geom, i, j, at) >= margin_mm)
+        out.append(at[far[0]] if far.size else at[-1])
+    return float(out[0]), float(out[1])

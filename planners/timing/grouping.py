@@ -27,7 +27,7 @@ from numba import njit
 
 from rfp_twin.models.geometry2d import DEG, beta_segment, segment_distance
 
-__all__ = ["interaction_pairs", "interaction_groups"]
+__all__ = ["interaction_pairs", "interaction_groups", "pair_clearance"]
 
 
 @njit(cache=True, inline="always")
@@ -124,6 +124,35 @@ def interaction_pairs(plan, geom, margin_mm: float) -> tuple[np.ndarray, np.ndar
                                spec.segment_start_mm, np.ascontiguousarray(geom.seg_end),
                                np.ascontiguousarray(geom.buffer), float(mu), float(margin_mm))
     return pairs, cl
+
+
+@njit(cache=True)
+def _pair_clearance_at(ptr, steps, angles, base_xy, i, j, at, l_alpha, seg_start, seg_end,
+                       buffer, out):
+    q = np.empty(4)
+    thr = buffer[i] + buffer[j]
+    for k in range(at.size):
+        _plan_angles(ptr, steps, angles, i, at[k], q, 0)
+        _plan_angles(ptr, steps, angles, j, at[k], q, 2)
+        a0x, a0y, a1x, a1y = beta_segment(base_xy[i, 0], base_xy[i, 1], q[0], q[1],
+                                          l_alpha, seg_start, seg_end[i])
+        b0x, b0y, b1x, b1y = beta_segment(base_xy[j, 0], base_xy[j, 1], q[2], q[3],
+                                          l_alpha, seg_start, seg_end[j])
+        out[k] = segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - thr
+
+
+def pair_clearance(plan, geom, i: int, j: int, at) -> np.ndarray:
+    """Clearance ``D_ij - 2 sigma`` of robots ``i``, ``j`` (indices) in the plan at steps
+    ``at`` (k,): (k,) mm."""
+    at = np.ascontiguousarray(np.atleast_1d(np.asarray(at, dtype=np.float64)))
+    out = np.empty(at.size)
+    _pair_clearance_at(np.ascontiguousarray(plan.path_ptr, dtype=np.int64),
+                       np.ascontiguousarray(plan.path_step, dtype=np.float64),
+                       np.ascontiguousarray(plan.path_angles, dtype=np.float64),
+                       geom.base_xy, int(i), int(j), at, geom.spec.alpha_length_mm,
+                       geom.spec.segment_start_mm, np.ascontiguousarray(geom.seg_end),
+                       np.ascontiguousarray(geom.buffer), out)
+    return out
 
 
 def interaction_groups(n: int, edges: np.ndarray) -> np.ndarray:

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from rfp_twin.models.trajectory import Trajectory
-from rfp_twin.planners.postprocess.verification import (ClearanceLedger, repair, subset_trajectory,
-                                               verify_neighbours)
+from rfp_twin.planners.postprocess.verification import (ClearanceLedger, narrow_locally, repair,
+                                                        subset_trajectory, verify_neighbours)
+from rfp_twin.planners.smoothing_local import WindowRegions
 from tests.planners.conftest import make_geom
 
 
@@ -57,6 +58,52 @@ def test_repair_merges_groups_and_tightens_robots_in_place():
     dirty, touched, merges, tightened = repair([hit(13, 5, "fiducial")], labels, ids,
                                                window, tol, pre)
     assert dirty == set() and touched == {3} and merges == tightened == 0
+
+
+def test_local_repair_narrows_around_the_collision_and_keeps_the_tolerances():
+    """With regions, a collision inside a group narrows the window of both robots on a
+    stretch around it (level 1: the collision +- w/2 + w/2 steps); the global window, RDP
+    and pre-simplification tolerances stay."""
+    labels = np.array([0, 0, 1])
+    ids = {10: 0, 11: 1, 12: 2}
+    window = np.array([200.0, 200.0, 200.0])
+    tol = np.array([0.1, 0.1, 0.1])
+    pre = np.array([0.2, 0.2, 0.2])
+    reg = WindowRegions(3)
+    spans = []
+
+    def span(c, margin_mm):
+        spans.append(margin_mm)
+        return (1000.0, 1050.0) if margin_mm == 0.0 else (950.0 - margin_mm, 1100.0)
+
+    dirty, touched, merges, tightened = repair([hit(10, 11)], labels, ids, window, tol, pre,
+                                               reg, span)
+    assert dirty == {0} and touched == {0, 1} and tightened == 2 and merges == 0
+    assert reg.regions[0] == reg.regions[1] == [[(949.0 - 200.0, 1100.0 + 200.0)]]
+    assert reg.regions[2] == [] and spans == [0.0, 1.0, 0.0, 1.0]
+    np.testing.assert_array_equal(window, 200.0)
+    np.testing.assert_array_equal(tol, 0.1)
+    np.testing.assert_array_equal(pre, 0.2)
+
+
+def test_narrow_locally_deepens_inside_extends_near_an_end_and_stops_at_the_floor():
+    reg = WindowRegions(1)
+
+    def at(u0, u1):
+        return lambda c, margin_mm: (u0, u1)
+
+    assert narrow_locally(reg, 0, at(1000.0, 1010.0), None, 200.0)
+    assert reg.regions[0] == [[(800.0, 1210.0)]]
+    # deep inside level 1 (>= 100 steps from its ends): level 2, reaching 50 + 50 steps
+    assert narrow_locally(reg, 0, at(1000.0, 1010.0), None, 200.0)
+    assert reg.regions[0][1] == [(900.0, 1110.0)]
+    # near the end of the level-2 stretch (< 50 steps): that stretch grows, no level 3
+    assert narrow_locally(reg, 0, at(1100.0, 1105.0), None, 200.0)
+    assert reg.regions[0] == [[(800.0, 1210.0)], [(900.0, 1205.0)]]
+    # the window cannot go below one step: 200 / 2^8 < 1
+    small = WindowRegions(1)
+    results = [narrow_locally(small, 0, at(500.0, 500.0), None, 200.0) for _ in range(9)]
+    assert results == [True] * 7 + [False] * 2 and small.max_level() == 7
 
 
 def test_neighbours_are_symmetric_and_local_and_subsets_keep_robots():
