@@ -66,7 +66,7 @@ from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import Plan
 from rfp_twin.planners.postprocess.groups import (TimedGroup, assemble, group_offsets,
                                                   time_and_simplify)
-from rfp_twin.planners.postprocess.report import PostprocessReport, build_report
+from rfp_twin.planners.postprocess.report import PostprocessReport, build_report, slowest_groups
 from rfp_twin.planners.postprocess.verification import (ClearanceLedger, near_stretch, repair,
                                                         subset_trajectory, verify_neighbours)
 from rfp_twin.planners.simplify import simplify_plan
@@ -298,6 +298,9 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                           verify_buffer, smoothing, window_steps, window, tolerance_deg,
                           max_points, sample_s, interaction_mm, align, backend, rounds, retries,
                           merges, tightened, repaired, stages, clock)
+    narrowed = set(regions.robots()) if regions is not None else set(
+        np.flatnonzero(window < float(window_steps)).tolist())
+    report.slowest_groups = slowest_groups(plan, groups, narrowed)
     report.presimplify_deg = float(presimplify_deg)
     report.plan_breakpoints = int(plan.path_step.size)
     report.smoothed_breakpoints = n_smoothed

@@ -121,6 +121,12 @@ class PostprocessReport:
     plan_breakpoints: int = 0
     smoothed_breakpoints: int = 0
     stage_seconds: dict = field(default_factory=dict)
+    #: Firmware-ready duration / stepwise plan duration.
+    duration_ratio: float = math.nan
+    #: The groups that set the end, longest first (at most :data:`N_SLOWEST`): robot ids,
+    #: their timed duration and the stepwise time at which their last robot stops, s,
+    #: and how many of them had their window narrowed around a collision.
+    slowest_groups: list = field(default_factory=list)
     #: The smooth timed motion behind the trajectory (not serialised).
     timed: TimedPath | None = field(default=None, repr=False, compare=False)
     #: The verifier's report on the whole returned trajectory, when its last round
@@ -143,7 +149,8 @@ class PostprocessReport:
             f"post-processing: {'verified' if self.verified else 'NOT VERIFIED'} at "
             f"{self.verify_buffer_mm:.3f} mm (buffer {self.buffer_mm:.3f} - budget "
             f"{self.budget_mm:.3f} mm), min clearance {self.min_clearance_mm:.4f} mm",
-            f"  fold time {self.duration_s:.2f} s (stepwise plan {self.plan_duration_s:.2f} s); "
+            f"  fold time {self.duration_s:.2f} s (stepwise plan {self.plan_duration_s:.2f} s, "
+            f"x {self.duration_ratio:.3f}); "
             f"groups {self.n_groups} (largest {self.largest_group}, "
             f"{self.n_grouped_robots} robots grouped)",
             f"  max |v| {self.max_speed_deg_s[0]:.2f} / {self.max_speed_deg_s[1]:.2f} deg/s "
@@ -159,7 +166,31 @@ class PostprocessReport:
             + f"; fallbacks {self.timing_fallbacks}",
             "  stages " + ", ".join(f"{k} {v:.3f} s" for k, v in st.items()),
         ]
+        for g in self.slowest_groups:
+            lines.append(f"  group {g['robots']}: {g['duration_s']:.2f} s (stepwise "
+                         f"{g['stepwise_s']:.2f} s, {g['narrowed_robots']} narrowed)")
         return "\n".join(lines)
+
+
+#: Groups listed in :attr:`PostprocessReport.slowest_groups`.
+N_SLOWEST = 3
+
+
+def slowest_groups(plan, groups: dict, narrowed: set, n: int = N_SLOWEST) -> list:
+    """The ``n`` longest groups (``groups``: TimedGroup by label; ``narrowed``: robot
+    indices whose window was narrowed somewhere), as JSON-ready dicts."""
+    out = []
+    for g in sorted(groups.values(), key=lambda g: -g.duration)[:n]:
+        last = 0.0
+        for i in g.robots:
+            st, ang = plan.path(int(i))
+            moved = np.flatnonzero(np.any(np.diff(ang, axis=0) != 0.0, axis=1))
+            if moved.size:
+                last = max(last, float(st[moved[-1] + 1]))
+        out.append({"robots": [int(r) for r in plan.robot_ids[g.robots]],
+                    "duration_s": float(g.duration), "stepwise_s": last * plan.step_s,
+                    "narrowed_robots": int(sum(int(i) in narrowed for i in g.robots))})
+    return out
 
 
 def build_report(plan, traj, groups, labels, path, ledger, spec, buffer_mm, budget_mm,
@@ -208,6 +239,8 @@ def build_report(plan, traj, groups, labels, path, ledger, spec, buffer_mm, budg
         largest_group=int(sizes.max()) if sizes.size else 0,
         n_grouped_robots=int(sizes[sizes > 1].sum()),
         duration_s=float(traj.duration), plan_duration_s=float(plan.n_steps * plan.step_s),
+        duration_ratio=(float(traj.duration) / (plan.n_steps * plan.step_s)
+                        if plan.n_steps > 0 else math.nan),
         speed_limit_deg_s=[float(v) for v in spec.max_speed_deg_s],
         accel_limit_deg_s2=[float(v) for v in spec.max_accel_deg_s2],
         max_speed_deg_s=vm.tolist(), max_accel_deg_s2=am.tolist(),

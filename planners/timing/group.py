@@ -83,6 +83,51 @@ def time_group(path: SmoothPath, robots, max_speed, max_accel, *, grid_steps: fl
                       limits=(vmax, amax, sd_cap))
     if grid.size < 2:
         return TimeLaw.static(float(grid[0]))
+    law = _solve(path, robots, grid, vmax, amax, sd_cap, backend, solve_law, fallback,
+                 toppra_max_robots)
+    for _ in range(_MAX_REFINE):
+        stuck = _stopped_inside(law, path, robots, amax)
+        if stuck.size == 0:
+            break
+        # halve the interval crossed at rest and both of its neighbours
+        grid = law.s
+        lo = np.maximum(stuck - 1, 0)
+        hi = np.minimum(stuck + 2, grid.size - 1)
+        edges = np.unique(np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)]))
+        grid = np.union1d(grid, 0.5 * (grid[edges] + grid[edges + 1]))
+        law = _solve(path, robots, grid, vmax, amax, sd_cap, backend, solve_law, fallback,
+                     toppra_max_robots)
+    return law
+
+
+#: Rounds of grid refinement around a law's stops where the path moves.
+_MAX_REFINE = 8
+
+
+def _stopped_inside(law: TimeLaw, path: SmoothPath, robots: np.ndarray,
+                    amax: np.ndarray) -> np.ndarray:
+    """Intervals (their first gridpoint) crossed far slower than from rest to rest.
+
+    With ``x = sd^2`` linear on each interval, TOPP-RA's greedy forward pass can push a
+    gridpoint to the top of its controllable set from which the only admissible next
+    value is ``x = 0``; when the gridpoint after that must also be at rest (the end),
+    the interval between them is crossed at (nearly) zero speed: in infinite time with
+    the kernel, 1789 s with the library, where a finer grid takes 0.17 s (measured on
+    a robot of a Markov fold that ends its motion on the last interval). An interval
+    whose joints move at most ``d`` deg is flagged when it takes more than three times
+    ``2 sqrt(d / a)``, the time from rest to rest over it."""
+    if law.s.size < 2:
+        return np.zeros(0, dtype=np.int64)
+    q = path.evaluate(law.s, robots, 0).reshape(law.s.size, -1)
+    d = np.abs(np.diff(q, axis=0))
+    rest_to_rest = 2.0 * np.sqrt(d / amax[None, :]).max(axis=1)
+    return np.flatnonzero((np.diff(law.t) > 3.0 * rest_to_rest + 1e-6) & (d.max(axis=1) > 1e-9))
+
+
+def _solve(path: SmoothPath, robots: np.ndarray, grid: np.ndarray, vmax, amax, sd_cap: float,
+           backend: str, solve_law, fallback: bool, toppra_max_robots) -> TimeLaw:
+    """The law of the group on ``grid`` by ``backend`` (see :func:`time_group`)."""
+    k = robots.size
     qd = np.ascontiguousarray(path.evaluate(grid, robots, 1).reshape(grid.size, 2 * k))
     mid = 0.5 * (grid[1:] + grid[:-1])
     qdd = np.ascontiguousarray(path.evaluate(mid, robots, 2).reshape(mid.size, 2 * k))
@@ -96,5 +141,3 @@ def time_group(path: SmoothPath, robots, max_speed, max_accel, *, grid_steps: fl
         raise PlanningError(f"{backend}: no parametrisation of the group of robots "
                             f"{robots.tolist()}; allowed: fallback=True or backend='numba'")
     return replace(numba_kernel.solve_law(problem), solver="fallback")
-
-

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rfp_twin.models.errors import SpecError
-from rfp_twin.planners.smoothing import smooth_plan
+from rfp_twin.planners.smoothing import SmoothPath, smooth_plan
 from rfp_twin.planners.timing import interaction_groups, interaction_pairs, time_group
 from tests.planners.conftest import make_geom, plan_random
 from tests.planners.path_builders import A, CORNER, V, numeric_kinematics, real_groups
@@ -71,3 +71,43 @@ def test_bad_arguments_name_the_field(kwargs, field):
     sp = smooth_plan(CORNER, window_steps=10)
     with pytest.raises(SpecError, match=field):
         time_group(sp, [0], (V, V), (A, A), **kwargs)
+
+
+def _ends_on_its_last_interval() -> SmoothPath:
+    """The last 44 steps of a robot of a Markov fold (500-robot SDSS-V, 2.5 mm, seed 3)
+    whose smoothed motion ends exactly on the domain's end, with q'' != 0 there."""
+    knots = np.array([0.0, 8.0, 16.0, 25.0, 32.0, 37.0, 40.0, 44.0])
+    c1c2 = [((1.0e-02, -6.25e-05), (-8.0e-03, 6.25e-05)),
+            ((9.0e-03, -2.5e-04), (-7.0e-03, 2.1875e-04)),
+            ((5.0e-03, 2.77777778e-05), (-3.5e-03, -5.55555556e-05)),
+            ((5.5e-03, -2.5e-04), (-4.5e-03, 2.5e-04)),
+            ((2.0e-03, -5.0e-05), (-1.0e-03, 5.0e-05)),
+            ((1.5e-03, 8.33333333e-05), (-5.0e-04, -2.5e-04)),
+            ((2.0e-03, -2.5e-04), (-2.0e-03, 2.5e-04)),
+            ((0.0, 0.0), (0.0, 0.0))]
+    coef = np.zeros((8, 2, 4))
+    value = np.array([247.708315, 153.514573])
+    for k, axes in enumerate(c1c2):
+        for ax, (c1, c2) in enumerate(axes):
+            coef[k, ax, :3] = value[ax], c1, c2
+        if k + 1 < 8:
+            h = knots[k + 1] - knots[k]
+            value = value + [a[0] * h + a[1] * h * h for a in axes]
+    return SmoothPath(np.array([1]), "average", np.array([200.0]), 0.0, 44.0,
+                      np.array([0, 8]), knots, coef)
+
+
+@pytest.mark.parametrize("backend", ["numba", "toppra"])
+def test_an_interval_crossed_at_rest_is_refined_away(backend, monkeypatch):
+    """TOPP-RA's greedy forward pass can leave x = 0 at both ends of the last interval
+    (the kernel: infinite time, the library: ~1800 s); time_group refines the grid
+    there and both backends give the same short law."""
+    from rfp_twin.planners.timing import group
+
+    sp = _ends_on_its_last_interval()
+    law = time_group(sp, [0], (30.0, 30.0), (45.0, 45.0), backend=backend)
+    assert law.duration < 0.3 and law.s.size > 14
+    assert law.sd[0] == 0.0 and law.sd[-1] == 0.0
+    monkeypatch.setattr(group, "_MAX_REFINE", 0)
+    raw = time_group(sp, [0], (30.0, 30.0), (45.0, 45.0), backend=backend)
+    assert raw.duration > 1000.0

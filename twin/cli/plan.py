@@ -128,6 +128,13 @@ def plan(
                    f"{summary['metrics']['rounds']} round(s); see {out}/targets.csv", EXIT_INCOMPLETE)
 
 
+def _group_row(g: dict) -> str:
+    """The group that sets the end: its robots, timed and stepwise durations."""
+    ids = ", ".join(str(r) for r in g["robots"][:8]) + (" ..." if len(g["robots"]) > 8 else "")
+    return (f"{ids}: {g['duration_s']:.2f} s (stepwise {g['stepwise_s']:.2f} s"
+            + (f", {g['narrowed_robots']} narrowed" if g["narrowed_robots"] else "") + ")")
+
+
 def print_summary(summary: dict, out: Path) -> None:
     """The run's figures as a table on stdout."""
     m = summary["metrics"]
@@ -153,7 +160,12 @@ def print_summary(summary: dict, out: Path) -> None:
                                     f"{m.get('n_continued_groups', 0)} groups")]
           if summary.get("resolve") == "search" else []),
         ("fold time (stepwise)", f"{m['fold_time_s']:.2f} s"),
-        ("trajectory duration", f"{summary['duration_s']:.2f} s ({summary['trajectories']})"),
+        ("trajectory duration", (f"{summary['duration_s']:.2f} s = "
+                                 f"{summary['duration_ratio']:.3f} x stepwise (firmware-ready)"
+                                 if summary.get("duration_ratio")
+                                 else f"{summary['duration_s']:.2f} s ({summary['trajectories']})")),
+        *([("robots that set the end", _group_row(summary["slowest_groups"][0]))]
+          if summary.get("slowest_groups") else []),
         ("tau_pg / tau_sr", f"{m['tau_pg_s']:.3f} s / {m['tau_sr_s']:.3f} s"),
         ("points per axis (median / max)",
          f"{summary['points_per_axis_median']:.0f} / {summary['points_per_axis_max']}"),

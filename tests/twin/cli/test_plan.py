@@ -160,6 +160,14 @@ def test_plan_writes_firmware_ready_trajectories_by_default(tmp_path):
     for key in ("duration_s", "max_speed_deg_s", "max_accel_deg_s2", "points_per_axis_max",
                 "stage_seconds"):
         assert key in p
+    # what makes the reconfiguration long: the stepwise fold, the ratio, the longest group
+    assert s["stepwise_fold_s"] == pytest.approx(s["metrics"]["fold_time_s"])
+    assert s["duration_ratio"] == pytest.approx(s["duration_s"] / s["stepwise_fold_s"])
+    slow = s["slowest_groups"]
+    assert 1 <= len(slow) <= 3 and slow[0]["duration_s"] == pytest.approx(s["duration_s"])
+    assert [g["duration_s"] for g in slow] == sorted((g["duration_s"] for g in slow), reverse=True)
+    assert set(slow[0]["robots"]) <= set(range(37))
+    assert 0.0 < slow[0]["stepwise_s"] <= s["stepwise_fold_s"] + 1e-9
     traj = Trajectory.from_json(out / "trajectories.json")
     assert traj.point_counts().max() <= 1024
     assert traj.max_speed().max() <= spec.max_speed_deg_s[0] * 1.01
