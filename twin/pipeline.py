@@ -77,7 +77,7 @@ class PlanOptions:
     budget_mm : buffer share of smoothing + simplification; trajectories are verified at
         buffer - budget
     max_points : most (angle, time) points per axis (firmware)
-    timing_backend : toppra | numba (time-optimal parametrisation backend)
+    timing_backend : numba (our TOPP-RA kernel, default) | toppra (the library, a cross-check)
     """
 
     algorithm: str = "greedy"

@@ -153,9 +153,9 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     sample_s : time step of the dense samples that RDP reduces, s
     grid_steps : longest TOPP-RA grid interval, plan steps
     align : "end" (all groups arrive together) or "start" (all start at t = 0)
-    backend : "toppra" (default: the library; a group it finds no solution for is timed
-        by the numba kernel and counted in the report's ``timing_fallbacks``) or "numba"
-        (the kernel only: the same trajectories 3-5x faster, e.g. for Markov plans)
+    backend : "numba" (default: our TOPP-RA kernel) or "toppra" (the library, the same
+        laws ~10x slower, as a cross-check; a group it finds no solution for is timed by
+        the kernel and counted in the report's ``timing_fallbacks``)
         (:func:`rfp_twin.planners.timing.time_group`)
     max_retries : verification rounds after the first
     verifier : ``verifier(trajectory, spec, layout, buffer_mm) -> report`` with ``ok``,

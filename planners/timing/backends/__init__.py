@@ -6,12 +6,12 @@ TimeLaw | None``, that solves a :class:`TimingProblem` (the constraints of
 where it finds no solution. All solve the same discretised problem on the same
 gridpoints:
 
-- ``"toppra"`` (default, :mod:`.toppra_library`): the ``toppra`` 0.6 library, its
+- ``"toppra"`` (:mod:`.toppra_library`): the ``toppra`` 0.6 library, its
   ``TOPPRA`` algorithm and seidel LP solver, given the constraints as precomputed unit
   rows; it solves every group of every plan measured (~390-460 groups per 500-robot
   SDSS-V fold, greedy and Markov) with laws equal to the kernel's within 2e-5 of the
   duration (benchmarks/RESULTS.md, "Timing backends");
-- ``"numba"`` (:mod:`.numba_kernel`): the kernel :func:`rfp_twin.planners.timing.kernel.topp_kernel`,
+- ``"numba"`` (default, :mod:`.numba_kernel`): the kernel :func:`rfp_twin.planners.timing.kernel.topp_kernel`,
   about 0.3 ms per group, 10-15x faster than the library for the same laws; it always
   finds a law, and :func:`rfp_twin.planners.timing.time_group` also uses it for groups the library
   finds no solution for (``TimeLaw.solver == "fallback"``) and for groups too large for
@@ -23,6 +23,11 @@ gridpoint plus a solver set-up that copies the rows element by element. On the
 machine under load 3.7) the whole post-processing takes 1.8-2.6 s with the library
 (0.56-0.69 s with the kernel), within the 3 s budget; Markov plans take 7-8 s with the
 library against 1.4-1.8 s with the kernel (``backend="numba"``).
+
+The kernel is the default: it gives the library's laws (tests/planners/test_timing_backends.py
+compares them group by group on real plans) without its Python loops and without the
+1.7-2.1 s that importing the library and matplotlib costs a fresh process; the library
+stays as the independent cross-check (``rfp-twin plan --timing-backend toppra``).
 
 A backend module is imported on first use (:func:`get_backend`): the ``toppra`` library
 and the matplotlib it imports take ~0.3 s.
@@ -47,7 +52,7 @@ _MODULES = {"toppra": "toppra_library", "numba": "numba_kernel"}
 #: Names of the backends.
 BACKENDS = tuple(_MODULES)
 #: Backend of :func:`rfp_twin.planners.timing.time_group` (and of the post-processing pipeline).
-DEFAULT_BACKEND = "toppra"
+DEFAULT_BACKEND = "numba"
 
 
 @dataclass(frozen=True)

@@ -208,14 +208,14 @@ def test_roadmap_planner_and_search_resolution_from_the_cli(tmp_path):
 
 
 def test_timing_backend_from_the_cli(tmp_path):
-    """The toppra library times the groups by default; --timing-backend numba uses our
-    kernel of the same algorithm: same durations, both within the limits."""
+    """Our kernel times the groups by default; --timing-backend toppra uses the library
+    (the same algorithm): same durations, both within the limits."""
     runs = {}
     for backend in ("toppra", "numba"):
         out = tmp_path / backend
         args = ["plan", "--layout", "hex:19", "--buffer", "2.0", "--seed", "3", "--out", str(out)]
-        if backend == "numba":
-            args += ["--timing-backend", "numba"]
+        if backend == "toppra":
+            args += ["--timing-backend", "toppra"]
         r = run(*args)
         assert r.returncode == 0, r.stderr
         assert "groups timed by" in r.stdout
