@@ -8,7 +8,8 @@ from 13.1 s to 19.6 s that way). Here the window is narrowed only on stretches o
 plan (:class:`WindowRegions`), and the result stays an exact piecewise quadratic, C1,
 with the plan's exact ends:
 
-Levels ``k = 0..K`` have windows ``w_k = w / 2^k``; level ``k >= 1`` covers the
+Levels ``k = 0..K`` have windows ``w_k = w / f^k`` (``f`` the regions' ``factor``, 2 by
+default); level ``k >= 1`` covers the
 stretches ``R_k`` (nested, ``R_1 ⊇ R_2 ⊇ ...``). Let ``A_k`` be the plan with every
 stretch of ``R_{k+1}`` replaced by its chord (``A_K`` is the plan). The plan is the
 sum ``A_0 + sum_k (A_k - A_{k-1})`` of piecewise-linear components, the ``k``-th zero
@@ -34,14 +35,15 @@ _KNOT_EPS = 1e-9
 
 
 class WindowRegions:
-    """Stretches of plan steps where a robot's smoothing window is ``w / 2^level``.
+    """Stretches of plan steps where a robot's smoothing window is ``w / factor^level``.
 
     ``regions[i]`` is a list, per level 1, 2, ..., of disjoint sorted ``[lo, hi]``
     intervals (plan steps) of robot index ``i``; a stretch of level ``k`` lies inside
     the stretches of every lower level (:meth:`add` keeps it so).
     """
 
-    def __init__(self, n_robots: int) -> None:
+    def __init__(self, n_robots: int, factor: float = 2.0) -> None:
+        self.factor = float(factor)
         self.regions: list[list[list[tuple[float, float]]]] = [[] for _ in range(n_robots)]
 
     def level(self, i: int, lo: float, hi: float) -> int:
@@ -191,7 +193,7 @@ def smooth_plan_local(plan: Plan, window_steps: np.ndarray, regions: WindowRegio
                                                  far)):
             comp_b.append(cb + pad)
             comp_y.append(cy)
-            comp_w.append(float(window_steps[i]) / 2.0 ** k)
+            comp_w.append(float(window_steps[i]) / regions.factor ** k)
             owner.append(i)
     ptr_in = np.concatenate([[0], np.cumsum([c.size for c in comp_b])]).astype(np.int64)
     ptr, knots, coef = _average_all(ptr_in, np.ascontiguousarray(np.concatenate(comp_b)),

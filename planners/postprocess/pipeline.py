@@ -67,8 +67,9 @@ from rfp_twin.planners.plan import Plan
 from rfp_twin.planners.postprocess.groups import (TimedGroup, assemble, group_offsets,
                                                   time_and_simplify)
 from rfp_twin.planners.postprocess.report import PostprocessReport, build_report, slowest_groups
-from rfp_twin.planners.postprocess.verification import (ClearanceLedger, near_stretch, repair,
-                                                        subset_trajectory, verify_neighbours)
+from rfp_twin.planners.postprocess.verification import (LOCAL_NARROWING, ClearanceLedger,
+                                                        near_stretch, repair, subset_trajectory,
+                                                        verify_neighbours)
 from rfp_twin.planners.simplify import simplify_plan
 from rfp_twin.planners.smoothing import METHODS, SmoothPath, smooth_plan, window_for_limits
 from rfp_twin.planners.smoothing_local import WindowRegions, smooth_plan_local
@@ -99,9 +100,12 @@ DEFAULT_TOLERANCE_DEG = 0.1
 #: most 0.13 mm before smoothing; robots that come too close get it halved.
 DEFAULT_PRESIMPLIFY_DEG = 0.2
 #: Pairs whose clearance falls below this at some step of the plan share one path
-#: parameter, mm. 0.3 / 1 / 2 mm gave the same fold times on the 500-robot layout; 1 mm
-#: (half a buffer) needed no group merge in verification there, 0.3 mm one.
-DEFAULT_INTERACTION_MM = 1.0
+#: parameter, mm. Robots that share one slow down for each other's corners, so smaller
+#: groups are faster; pairs timed apart that meet anyway are merged by the verification.
+#: 500-robot SDSS-V layout, greedy + search at 2.5 mm, 20 seeds, with local narrowing
+#: (benchmarks/RESULTS.md): 1 mm -> 0.3 mm, duration / stepwise p95 1.266 -> 1.247, the
+#: same median; 0.3 mm with the sqrt(2) narrowing and the 0.5 mm stretch: p95 1.214.
+DEFAULT_INTERACTION_MM = 0.3
 ALIGNMENTS = ("end", "start")
 
 
@@ -197,7 +201,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     window = np.full(n, float(window_steps))
     pre = np.full(n, float(presimplify_deg))
     pad = float(window_steps) / 2.0
-    regions = WindowRegions(n) if smoothing == "average" else None
+    regions = WindowRegions(n, LOCAL_NARROWING) if smoothing == "average" else None
     path, n_smoothed = _smooth(plan, smoothing, window, pad, pre, regions)
     stages["smooth"] += time.perf_counter() - t0
 

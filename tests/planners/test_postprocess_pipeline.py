@@ -140,14 +140,18 @@ def test_chasing_robots_collide_when_timed_apart_and_not_when_grouped():
     assert not hit.ok and hit.min_clearance_mm < -1.0
     with pytest.raises(PlanningError, match="collision"):
         postprocess(plan, geom, interaction_mm=0.0, max_retries=0, verifier=check_trajectory)
-    # grouped (default interaction distance 1 mm): one path parameter, clear at once
-    traj, rep = postprocess(plan, geom, verifier=check_trajectory)
+    # grouped (interaction distance 1 mm > their closest 0.3-1 mm): one path parameter,
+    # clear at once
+    traj, rep = postprocess(plan, geom, interaction_mm=1.0, verifier=check_trajectory)
     assert rep.n_groups == 1 and rep.largest_group == 2
     assert rep.merges == 0 and rep.retries == 0
     assert_firmware_ready(traj, rep, plan, geom)
-    # and the repair loop reaches the same grouping from the split one
-    _, rep_fix = postprocess(plan, geom, interaction_mm=0.0, verifier=check_trajectory)
-    assert rep_fix.merges == 1 and rep_fix.largest_group == 2 and rep_fix.verified
+    # and the repair loop reaches the same grouping from the split one (as with the
+    # default 0.3 mm, below their closest approach)
+    for mm in (0.0, None):
+        kw = {} if mm is None else {"interaction_mm": mm}
+        _, rep_fix = postprocess(plan, geom, verifier=check_trajectory, **kw)
+        assert rep_fix.merges == 1 and rep_fix.largest_group == 2 and rep_fix.verified
 
 
 # -- arguments ----------------------------------------------------------------------------

@@ -79,8 +79,8 @@ def test_local_repair_narrows_around_the_collision_and_keeps_the_tolerances():
     dirty, touched, merges, tightened = repair([hit(10, 11)], labels, ids, window, tol, pre,
                                                reg, span)
     assert dirty == {0} and touched == {0, 1} and tightened == 2 and merges == 0
-    assert reg.regions[0] == reg.regions[1] == [[(949.0 - 200.0, 1100.0 + 200.0)]]
-    assert reg.regions[2] == [] and spans == [0.0, 1.0, 0.0, 1.0]
+    assert reg.regions[0] == reg.regions[1] == [[(949.5 - 200.0, 1100.0 + 200.0)]]
+    assert reg.regions[2] == [] and spans == [0.0, 0.5, 0.0, 0.5]
     np.testing.assert_array_equal(window, 200.0)
     np.testing.assert_array_equal(tol, 0.1)
     np.testing.assert_array_equal(pre, 0.2)
