@@ -42,18 +42,37 @@ class Trajectory:
             if len(self.times[ax]) != self.n_robots or len(self.angles[ax]) != self.n_robots:
                 raise TrajectoryError(f"axis {AXES[ax]}: {len(self.times[ax])} paths for "
                                       f"{self.n_robots} robots")
-            for i in range(self.n_robots):
-                t, a = self.times[ax][i], self.angles[ax][i]
-                rid = int(self.robot_ids[i])
-                if t.ndim != 1 or t.shape != a.shape or t.size == 0:
-                    raise TrajectoryError(f"robot {rid}: axis {AXES[ax]} needs matching non-empty "
-                                          "time and angle lists")
-                if not (np.all(np.isfinite(t)) and np.all(np.isfinite(a))):
-                    raise TrajectoryError(f"robot {rid}: axis {AXES[ax]} has NaN/inf; allowed: "
-                                          "finite numbers")
-                if np.any(np.diff(t) < 0):
-                    raise TrajectoryError(f"robot {rid}: axis {AXES[ax]} times decrease; allowed: "
-                                          "non-decreasing times")
+            if self.n_robots and not self._axis_ok(ax):
+                self._raise_axis(ax)
+
+    def _axis_ok(self, ax: int) -> bool:
+        """One vectorised pass over an axis: shapes, finite values, non-decreasing times."""
+        ts, as_ = self.times[ax], self.angles[ax]
+        for t, a in zip(ts, as_):
+            if t.ndim != 1 or t.shape != a.shape or t.size == 0:
+                return False
+        t = np.concatenate(ts)
+        if not (np.isfinite(t).all() and np.isfinite(np.concatenate(as_)).all()):
+            return False
+        starts = np.cumsum([x.size for x in ts])[:-1]
+        dt = np.diff(t)
+        dt[starts - 1] = 0.0                     # between two robots' paths
+        return bool((dt >= 0).all())
+
+    def _raise_axis(self, ax: int) -> None:
+        """The error of the first robot whose axis ``ax`` is malformed."""
+        for i in range(self.n_robots):
+            t, a = self.times[ax][i], self.angles[ax][i]
+            rid = int(self.robot_ids[i])
+            if t.ndim != 1 or t.shape != a.shape or t.size == 0:
+                raise TrajectoryError(f"robot {rid}: axis {AXES[ax]} needs matching non-empty "
+                                      "time and angle lists")
+            if not (np.all(np.isfinite(t)) and np.all(np.isfinite(a))):
+                raise TrajectoryError(f"robot {rid}: axis {AXES[ax]} has NaN/inf; allowed: "
+                                      "finite numbers")
+            if np.any(np.diff(t) < 0):
+                raise TrajectoryError(f"robot {rid}: axis {AXES[ax]} times decrease; allowed: "
+                                      "non-decreasing times")
 
     # -- construction ---------------------------------------------------------
     @classmethod

@@ -85,15 +85,24 @@ def group_offsets(groups: dict, align: str) -> dict:
     return {k: (T - g.duration if align == "end" else 0.0) for k, g in groups.items()}
 
 
-def assemble(plan: Plan, groups: dict, align: str, start_cfg, end_cfg) -> Trajectory:
-    """The trajectory of all groups (by label), ends set to ``start_cfg``, ``end_cfg`` (n, 2)."""
+def assemble(plan: Plan, groups: dict, align: str, start_cfg, end_cfg,
+             robots: np.ndarray | None = None) -> Trajectory:
+    """The trajectory of all groups (by label), ends set to ``start_cfg``, ``end_cfg`` (n, 2);
+    with ``robots`` (indices, increasing), only those robots (the groups still placed in
+    time with all of them)."""
     n = plan.n_robots
     offsets = group_offsets(groups, align)
     times: tuple[list, list] = ([None] * n, [None] * n)   # type: ignore[list-item]
     angles: tuple[list, list] = ([None] * n, [None] * n)  # type: ignore[list-item]
+    wanted = None
+    if robots is not None:
+        wanted = np.zeros(n, dtype=bool)
+        wanted[robots] = True
     for key, g in groups.items():
         off = offsets[key]
         for r, i in enumerate(g.robots):
+            if wanted is not None and not wanted[i]:
+                continue
             for ax in range(2):
                 c = 2 * r + ax
                 m = g.keep[:, c]
@@ -105,6 +114,8 @@ def assemble(plan: Plan, groups: dict, align: str, start_cfg, end_cfg) -> Trajec
                     tt, yy = tt[:1], yy[:1]
                 times[ax][i] = tt
                 angles[ax][i] = yy
-    return Trajectory(np.asarray(plan.robot_ids, dtype=np.int64),
-                      (tuple(times[0]), tuple(times[1])), (tuple(angles[0]), tuple(angles[1])))
+    keep = range(n) if robots is None else [int(i) for i in robots]
+    return Trajectory(np.asarray(plan.robot_ids, dtype=np.int64)[list(keep)],
+                      tuple(tuple(times[ax][i] for i in keep) for ax in range(2)),
+                      tuple(tuple(angles[ax][i] for i in keep) for ax in range(2)))
 

@@ -68,8 +68,7 @@ from rfp_twin.planners.postprocess.groups import (TimedGroup, assemble, group_of
                                                   time_and_simplify)
 from rfp_twin.planners.postprocess.report import PostprocessReport, build_report, slowest_groups
 from rfp_twin.planners.postprocess.verification import (LOCAL_NARROWING, ClearanceLedger,
-                                                        near_stretch, repair, subset_trajectory,
-                                                        verify_neighbours)
+                                                        near_stretch, repair, verify_neighbours)
 from rfp_twin.planners.simplify import simplify_plan
 from rfp_twin.planners.smoothing import METHODS, SmoothPath, smooth_plan, window_for_limits
 from rfp_twin.planners.smoothing_local import WindowRegions, smooth_plan_local
@@ -237,20 +236,20 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
             if not np.any(labels == g):
                 del groups[g]
         stages["time"] += time.perf_counter() - t0
-        t0 = time.perf_counter()
-        traj = assemble(plan, groups, align, start_cfg, end_cfg)
-        stages["simplify"] += time.perf_counter() - t0
-        if verifier is None:
-            break
         # 5. verification: everything in the first round, then the robots whose
         #    trajectory changed and their neighbours (other pairs are unchanged up to a
         #    common time shift, so their earlier result stands)
         t0 = time.perf_counter()
-        if rounds == 0:
-            sub = traj
+        if rounds == 0 or verifier is None:
+            sub = traj = assemble(plan, groups, align, start_cfg, end_cfg)
         else:
             sel = np.flatnonzero(changed | (near @ changed.astype(np.int64) > 0))
-            sub = subset_trajectory(traj, sel)
+            sub = assemble(plan, groups, align, start_cfg, end_cfg, robots=sel)
+            traj = None
+        stages["simplify"] += time.perf_counter() - t0
+        if verifier is None:
+            break
+        t0 = time.perf_counter()
         check = verifier(sub, spec, geom.layout, verify_buffer)
         ledger.update(check)
         stages["verify"] += time.perf_counter() - t0
@@ -297,6 +296,11 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         for g in dirty:
             changed[labels == g] = True
 
+    final_full = traj is not None
+    if traj is None:
+        t0 = time.perf_counter()
+        traj = assemble(plan, groups, align, start_cfg, end_cfg)
+        stages["simplify"] += time.perf_counter() - t0
     report = build_report(plan, traj, groups, labels, path,
                           ledger if verifier is not None else None, spec, buffer_mm, budget_mm,
                           verify_buffer, smoothing, window_steps, window, tolerance_deg,
@@ -308,7 +312,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     report.presimplify_deg = float(presimplify_deg)
     report.plan_breakpoints = int(plan.path_step.size)
     report.smoothed_breakpoints = n_smoothed
-    report.final_check = check if verifier is not None and sub is traj else None
+    report.final_check = check if verifier is not None and final_full else None
     return traj, report
 
 
