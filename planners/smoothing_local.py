@@ -174,12 +174,15 @@ def _sum_pieces(parts: list[tuple[np.ndarray, np.ndarray]], end_value: np.ndarra
 
 
 def smooth_plan_local(plan: Plan, window_steps: np.ndarray, regions: WindowRegions,
-                      pad_steps: float) -> SmoothPath:
+                      pad_steps: float, base: SmoothPath | None = None) -> SmoothPath:
     """Running-average smoothing, window ``window_steps[i]`` (n,) for robot ``i`` except on
     its :class:`WindowRegions` stretches (see the module docstring); domain padding
-    ``pad_steps`` (at least half the widest window)."""
+    ``pad_steps`` (at least half the widest window). ``base``: the plain smoothing of
+    the same plan, windows and padding, if already computed."""
     local = regions.robots()
-    base = smooth_plan(plan, method="average", window_steps=window_steps, pad_steps=pad_steps)
+    if base is None:
+        base = smooth_plan(plan, method="average", window_steps=window_steps,
+                           pad_steps=pad_steps)
     if not local:
         return base
     pad = float(pad_steps)

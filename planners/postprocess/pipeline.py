@@ -201,7 +201,8 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     pre = np.full(n, float(presimplify_deg))
     pad = float(window_steps) / 2.0
     regions = WindowRegions(n, LOCAL_NARROWING) if smoothing == "average" else None
-    path, n_smoothed = _smooth(plan, smoothing, window, pad, pre, regions)
+    cache: dict = {}
+    path, n_smoothed = _smooth(plan, smoothing, window, pad, pre, regions, cache)
     stages["smooth"] += time.perf_counter() - t0
 
     # 2. grouping
@@ -291,7 +292,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                 "larger budget_mm")
         if touched:
             t0 = time.perf_counter()
-            path, n_smoothed = _smooth(plan, smoothing, window, pad, pre, regions)
+            path, n_smoothed = _smooth(plan, smoothing, window, pad, pre, regions, cache)
             stages["smooth"] += time.perf_counter() - t0
         for g in dirty:
             changed[labels == g] = True
@@ -316,13 +317,22 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     return traj, report
 
 
-def _smooth(plan: Plan, method: str, window: np.ndarray, pad: float,
-            pre: np.ndarray, regions: WindowRegions | None) -> tuple[SmoothPath, int]:
+def _smooth(plan: Plan, method: str, window: np.ndarray, pad: float, pre: np.ndarray,
+            regions: WindowRegions | None, cache: dict) -> tuple[SmoothPath, int]:
     """Pre-simplify (tolerance ``pre`` per robot) and smooth (narrower on ``regions``):
-    (path, breakpoints smoothed)."""
-    src = simplify_plan(plan, pre) if np.any(pre > 0.0) else plan
+    (path, breakpoints smoothed). ``cache`` keeps the pre-simplified plan and its plain
+    smoothing between rounds (they change only when ``pre`` or ``window`` does)."""
+    key = (pre.tobytes(), window.tobytes())
+    if key not in cache:
+        cache.clear()
+        src = simplify_plan(plan, pre) if np.any(pre > 0.0) else plan
+        cache[key] = (src, None)
+    src, base = cache[key]
     if regions is not None:
-        return smooth_plan_local(src, window, regions, pad), int(src.path_step.size)
+        if base is None:
+            base = smooth_plan(src, method="average", window_steps=window, pad_steps=pad)
+            cache[key] = (src, base)
+        return smooth_plan_local(src, window, regions, pad, base), int(src.path_step.size)
     return (smooth_plan(src, method=method, window_steps=window, pad_steps=pad),
             int(src.path_step.size))
 

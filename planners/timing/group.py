@@ -102,6 +102,8 @@ def time_group(path: SmoothPath, robots, max_speed, max_accel, *, grid_steps: fl
 
 #: Rounds of grid refinement around a law's stops where the path moves.
 _MAX_REFINE = 8
+#: ds/dt (plan steps/s) below which both ends of an interval count as crawling.
+_CRAWL_SD = 1.0
 
 
 def _stopped_inside(law: TimeLaw, path: SmoothPath, robots: np.ndarray,
@@ -118,10 +120,16 @@ def _stopped_inside(law: TimeLaw, path: SmoothPath, robots: np.ndarray,
     ``2 sqrt(d / a)``, the time from rest to rest over it."""
     if law.s.size < 2:
         return np.zeros(0, dtype=np.int64)
-    q = path.evaluate(law.s, robots, 0).reshape(law.s.size, -1)
-    d = np.abs(np.diff(q, axis=0))
+    # only intervals crawled at both ends can be such (a real stop has one end at speed)
+    crawl = np.flatnonzero(np.maximum(law.sd[:-1], law.sd[1:]) < _CRAWL_SD)
+    if crawl.size == 0:
+        return crawl
+    q0 = path.evaluate(law.s[crawl], robots, 0).reshape(crawl.size, -1)
+    q1 = path.evaluate(law.s[crawl + 1], robots, 0).reshape(crawl.size, -1)
+    d = np.abs(q1 - q0)
     rest_to_rest = 2.0 * np.sqrt(d / amax[None, :]).max(axis=1)
-    return np.flatnonzero((np.diff(law.t) > 3.0 * rest_to_rest + 1e-6) & (d.max(axis=1) > 1e-9))
+    dt = law.t[crawl + 1] - law.t[crawl]
+    return crawl[(dt > 3.0 * rest_to_rest + 1e-6) & (d.max(axis=1) > 1e-9)]
 
 
 def _solve(path: SmoothPath, robots: np.ndarray, grid: np.ndarray, vmax, amax, sd_cap: float,
