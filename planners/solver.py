@@ -19,8 +19,12 @@ resolvers (``PlannerSettings.resolve``):
   is spent.
 
 Metrics follow the paper: efficiency (Eq. 11, replaced robots counted once; robots
-kept by the search are not replaced), convergence of the first run, tau_pg (time of the
-final planner run), tau_sr (all runs), fold time (steps x step duration); and the
+kept by the search are not replaced), convergence of the first run, tau_pg (wall time of
+the first planner run: every kernel call of it, those repeated after a breakpoint-buffer
+overflow included; ``pg_retries`` counts such repeats over all runs, none below
+:data:`rfp_twin.planners.stepwise.run.MAX_EVENTS`), tau_sr (all runs), ``planning_s``
+(the whole call: runs, searches, continuation, replacements, paths), fold time (steps x
+step duration); and the
 resolution: ``n_search_groups`` / ``n_search_robots`` (deadlocked groups / robots the
 final plan resolves by search), ``n_search_replanned`` (robots whose paths the search
 changed, recruited neighbours included), ``n_search_failed_groups`` (over all rounds),
@@ -32,6 +36,7 @@ Units: angles in deg, lengths in mm, plan time in planner steps (``step_s`` s ea
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from dataclasses import replace as _with
 
@@ -217,6 +222,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     Plan in the executed direction: step 0 is the folded state, the last step the targets.
     Robots that stayed deadlocked keep their path to where they stopped.
     """
+    clock = time.perf_counter()
     spec = geom.spec
     n = geom.n_robots
     targets = np.array(targets, dtype=np.float64, copy=True)
@@ -233,6 +239,8 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     use_search = resolve and settings.resolve == "search"
     search_settings = settings.search or SearchResolveSettings()
     tau_sr = 0.0
+    tau_pg = 0.0
+    pg_retries = 0
     search_s = 0.0
     convergence = None
     rounds = 0
@@ -251,8 +259,10 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             run = run_once(geom, fold, targets, movable, settings, seed)
             start, goal = fold, targets
         tau_sr += run.seconds
+        pg_retries += run.retries
         stuck = movable & ~np.all(np.abs(run.final - goal) < ANGLE_EPS, axis=1)
         if convergence is None:
+            tau_pg = run.seconds
             convergence = 1.0 - stuck.sum() / max(1, movable.sum())
         if progress is not None:
             progress(rounds, int(stuck.sum()))
@@ -317,7 +327,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         "n_replaced": int(replaced.sum()), "n_deadlocked": int(stuck.sum()),
         "efficiency": (n_mov - int(replaced.sum())) / max(1, n_mov),
         "convergence": float(convergence), "rounds": rounds,
-        "tau_pg_s": run.seconds, "tau_sr_s": tau_sr,
+        "tau_pg_s": tau_pg, "tau_sr_s": tau_sr, "pg_retries": pg_retries,
         "fold_time_s": n_steps * spec.step_seconds(settings.step_deg),
         "n_steps": n_steps, "max_displacement_mm": md,
     }
@@ -328,6 +338,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         "n_search_failed_groups": n_search_failed, "n_replace_groups": n_replace_groups,
         "continuation_s": continuation_s, "n_continued_groups": n_continued_groups,
         "n_continued_robots": n_continued_robots,
+        "planning_s": time.perf_counter() - clock,
     })
     plan = Plan(
         robot_ids=geom.robot_ids.copy(), step_deg=settings.step_deg,

@@ -2,9 +2,12 @@
 
 :func:`run_array` unpacks an :class:`rfp_twin.models.array.ArrayGeometry` into the arrays
 :func:`rfp_twin.planners.stepwise.kernel.run_stepwise` takes, allocates its breakpoint buffers
-and runs it; when the buffers overflow it runs again, from scratch, with buffers four
-times larger (the kernel is deterministic for a given seed, so the result does not
-depend on the first size). The breakpoints come back as a :class:`StepRun`, in the
+and runs it. The buffers hold one breakpoint per robot and step, the most the kernel can
+write, so a run is never repeated below :data:`MAX_EVENTS`; above it (arrays of
+thousands of robots with long step limits), a run whose buffers overflow runs again,
+from scratch, with buffers four times larger (the kernel is deterministic for a given
+seed, so the result does not depend on the first size), and the repeated calls are
+counted in its time and ``retries``. The breakpoints come back as a :class:`StepRun`, in the
 kernel's order (step order); :func:`rfp_twin.planners.plan.build_paths` turns them into paths.
 
 Units: angles in deg, lengths in mm, time in planner steps (wall time in s).
@@ -18,6 +21,10 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.planners.stepwise.kernel import run_stepwise
+
+#: Largest first breakpoint buffer, events (32 bytes each: 1 GiB of address space, of
+#: which only the written breakpoints are ever touched).
+MAX_EVENTS = 1 << 25
 
 
 @dataclass
@@ -59,15 +66,16 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
     greed, phobia : float in [0, 1], the Markov parameters of every robot; greed 1 and
         phobia 0 is the greedy planner
     seed : int, seed of the kernel's generator (Markov moves)
-    cap : int or None, breakpoints the first buffers hold (None: a few dozen per robot
-        for greedy runs, about one per step for Markov random walks)
+    cap : int or None, breakpoints the first buffers hold [default: one per robot and
+        step, ``n (max_steps + 1)``, which the kernel cannot exceed (it records a robot at
+        most once a step), up to :data:`MAX_EVENTS`; the buffers are allocated untouched,
+        so only the breakpoints written take memory]
     """
     spec = geom.spec
     n = geom.n_robots
-    greedy = greed >= 1.0 and phobia <= 0.0
     limits = np.array([*spec.alpha_limits_deg, *spec.beta_limits_deg], dtype=np.float64)
     if cap is None:
-        cap = 64 * n + 1024 if greedy else n * 2048
+        cap = min(n * (int(max_steps) + 1), MAX_EVENTS)
     cap = max(1, int(cap))
     start = np.ascontiguousarray(start, dtype=np.float64)
     dest = np.ascontiguousarray(dest, dtype=np.float64)

@@ -195,3 +195,28 @@ def test_deadlocked_groups_follow_the_neighbour_graph():
     groups = sorted(deadlocked_groups(geom, stuck), key=len)
     assert [len(g) for g in groups] == [1, 2]
     assert set(groups[1]) == {a, b} and list(groups[0]) == [far]
+
+
+def test_timings_count_the_first_run_every_run_and_the_whole_call(monkeypatch):
+    """tau_pg is the first kernel run (with its overflow repeats), tau_sr every run,
+    planning_s the whole call; the default buffers never overflow on this array."""
+    from rfp_twin.planners import solver
+
+    runs = []
+    real = solver.run_once
+
+    def spy(*args, **kwargs):
+        run = real(*args, **kwargs)
+        runs.append(run)
+        return run
+
+    monkeypatch.setattr(solver, "run_once", spy)
+    geom = make_geom(919, 2.5)
+    _, plan = plan_random(geom, 0, resolve=True, step_deg=0.1)
+    m = plan.metrics
+    assert m["rounds"] >= 1 and len(runs) == m["rounds"] + 1
+    assert m["tau_pg_s"] == runs[0].seconds
+    assert m["tau_sr_s"] == pytest.approx(sum(r.seconds for r in runs))
+    assert m["tau_sr_s"] > m["tau_pg_s"] > 0.0
+    assert m["pg_retries"] == sum(r.retries for r in runs) == 0
+    assert m["planning_s"] >= m["tau_sr_s"] + m["search_s"] + m["continuation_s"]

@@ -166,7 +166,8 @@ def print_summary(summary: dict, out: Path) -> None:
                                  else f"{summary['duration_s']:.2f} s ({summary['trajectories']})")),
         *([("robots that set the end", _group_row(summary["slowest_groups"][0]))]
           if summary.get("slowest_groups") else []),
-        ("tau_pg / tau_sr", f"{m['tau_pg_s']:.3f} s / {m['tau_sr_s']:.3f} s"),
+        ("tau_pg / tau_sr / planning", f"{m['tau_pg_s']:.3f} s / {m['tau_sr_s']:.3f} s / "
+                                       + (f"{m['planning_s']:.2f} s" if "planning_s" in m else "-")),
         ("points per axis (median / max)",
          f"{summary['points_per_axis_median']:.0f} / {summary['points_per_axis_max']}"),
         ("2D check", f"{'clear' if c['ok'] else 'COLLISION'} at {c['buffer_mm']:.3f} mm, min "
