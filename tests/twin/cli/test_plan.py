@@ -11,6 +11,8 @@ import pytest
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.timing import pl_kinematics
+from rfp_twin.validation.checker2d import check_trajectory
 from tests.twin.cli.runner import run
 
 
@@ -171,6 +173,19 @@ def test_plan_writes_firmware_ready_trajectories_by_default(tmp_path):
     traj = Trajectory.from_json(out / "trajectories.json")
     assert traj.point_counts().max() <= 1024
     assert traj.max_speed().max() <= spec.max_speed_deg_s[0] * 1.01
+    # the other direction (targets -> fold) is the same motion backwards: the same
+    # guarantees, checked on the file itself
+    back = Trajectory.from_json(out / "trajectories_to_fold.json")
+    assert back.duration == pytest.approx(traj.duration)
+    assert back.point_counts().max() <= 1024
+    assert back.max_speed().max() <= spec.max_speed_deg_s[0] * 1.01
+    for ax in range(2):
+        for i in range(back.n_robots):
+            assert pl_kinematics(back.times[ax][i], back.angles[ax][i])[1] <= \
+                spec.max_accel_deg_s2[ax] * 1.01
+    np.testing.assert_allclose(back.start(), traj.end(), atol=1e-9)
+    check = check_trajectory(back, spec, Layout.from_csv(out / "layout.csv"), spec.buffer_mm - 0.03)
+    assert check.ok, check.table()
     stepwise = Trajectory.from_json(raw / "trajectories.json")
     np.testing.assert_allclose(traj.end(), stepwise.end(), atol=1e-6)
     np.testing.assert_allclose(traj.start(), stepwise.start(), atol=1e-6)
