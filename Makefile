@@ -37,6 +37,7 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_planner.py
+	$(BIN)/python benchmarks/bench_fold_duration.py --no-planners
 	$(BIN)/python benchmarks/bench_sim.py
 	$(BIN)/python benchmarks/bench_render.py
 	$(BIN)/python benchmarks/bench_postprocess.py --only backends --preset sdss-v
