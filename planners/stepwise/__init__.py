@@ -9,10 +9,16 @@ moves
     The step-rule margin MD (:func:`max_displacement`, Eq. 7) and the kernel's scalar
     helpers (one candidate move, trig rotation by whole steps, segment reach).
 kernel
-    :func:`run_stepwise`, the numba kernel: GC and MC on raw arrays.
+    :func:`run_stepwise`, the numba kernel: GC and MC on raw arrays (its step loop; the
+    helpers it inlines are in ``candidates``, ``neighbours``, ``mc_choice`` and ``state``).
+candidates, neighbours, mc_choice, state
+    The kernel's helpers: a robot's nine candidates and the step rule; its neighbours
+    (short lists, free windows, Eq. 10, the Eq. 9 energy); the Markov choice; the
+    kernel's state.
 run
     :func:`run_array`: the kernel on an :class:`rfp_twin.models.array.ArrayGeometry`, with
-    breakpoint buffers that grow on overflow; its outcome is a :class:`StepRun`.
+    breakpoint buffers sized for the most the kernel can write (grown on overflow above
+    MAX_EVENTS); its outcome is a :class:`StepRun`.
 
 Units: angles in deg, lengths in mm, time in planner steps.
 """

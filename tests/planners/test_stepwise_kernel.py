@@ -1,7 +1,7 @@
 """The stepwise kernel's Markov choice against the paper's sequential rule.
 
 When every candidate passes the step rule the kernel draws MC's choice directly from its
-closed form (``mc_pick_free`` in planners/stepwise/kernel.py). Here one free robot takes one step
+closed form (``mc_pick_free`` in planners/stepwise/mc_choice.py). Here one free robot takes one step
 from many seeds and the distribution of its move is compared with a plain simulation
 of the sequential rule (random order, a candidate beating the best so far taken with
 probability greed, a tie with probability 1/2; Sayres 2021 Sect. 4.2).
