@@ -33,8 +33,9 @@ Pipeline (:func:`postprocess`):
    budget_mm`` (Eq. 12's sigma_smooth, 0.03 mm by default). A collision between two
    groups merges them (they met at different ``s``). A collision inside a group, or
    with a fiducial, means the smoothing cut a corner of the plan too close to the
-   other: the window of the robots involved is halved **only on the stretch of plan
-   steps around the collision** in which the pair stays near contact in the plan
+   other: the window of the robots involved is narrowed (by sqrt(2) a level) **only on
+   the stretch of plan steps around the collision** in which the pair stays near
+   contact in the plan
    (:mod:`rfp_twin.planners.smoothing_local`, :func:`.verification.narrow_locally`);
    the rest of their paths keeps the full window, so the time law slows down only
    there. (Halving it along the whole path, as before, stretched the 500-robot demo's
@@ -96,7 +97,8 @@ DEFAULT_TOLERANCE_DEG = 0.1
 #: ~980k breakpoints -> ~200k, post-processing 2.7-3.2 s -> 1.4-1.8 s and folds 2.6-6.9 s
 #: shorter (the wiggles are gone); greedy plans 14-20k -> 3-6k breakpoints, the same
 #: time, folds 0.1-0.4 s shorter. 0.2 deg moves a point of the beta collision segment by at
-#: most 0.13 mm before smoothing; robots that come too close get it halved.
+#: most 0.13 mm before smoothing; robots whose local window is at its floor and still come
+#: too close get it halved.
 DEFAULT_PRESIMPLIFY_DEG = 0.2
 #: Pairs whose clearance falls below this at some step of the plan share one path
 #: parameter, mm. Robots that share one slow down for each other's corners, so smaller
