@@ -6,8 +6,8 @@ report's minimum clearance covers the whole trajectory. :func:`verify_neighbours
 which robots the checker pairs (their neighbours are re-checked with them), and
 :func:`subset_trajectory` cuts the trajectory to them. :func:`repair` answers a failed
 round: a collision between two groups merges them (they met at different ``s``); a
-collision inside a group, or with a fiducial, halves the smoothing window of the robots
-involved on the stretch of plan steps around it (:func:`narrow_locally`, with
+collision inside a group, or with a fiducial, narrows the smoothing window of the robots
+involved (by :data:`LOCAL_NARROWING` a level) on the stretch of plan steps around it (:func:`narrow_locally`, with
 :func:`near_stretch` for the stretch a pair stays near contact), or along the whole path
 for the spline smoothing; the RDP and pre-simplification tolerances are halved only
 once the local window is at its floor (or with the spline).
@@ -158,12 +158,12 @@ def narrow_locally(regions: WindowRegions, i: int, step_span: Callable, collisio
     """Narrow robot ``i``'s window around a collision; False at the floor.
 
     Where the collision lies deep inside a stretch of level ``k`` (at least ``w_{k-1} / 2``
-    from its ends, so every wider level is exact there), the window is halved once more
-    (level ``k + 1``); near an end of a stretch, that stretch is extended (the chord
+    from its ends, so every wider level is exact there), the window is narrowed once more
+    by ``f = regions.factor`` (level ``k + 1``); near an end of a stretch, that stretch is extended (the chord
     corner of the wider level is what came too close). The new stretch covers the steps
-    in which the pair stays within ``_NEAR_MM / 2^(k-1)`` of contact in the plan (a
+    in which the pair stays within ``_NEAR_MM / f^(k-1)`` of contact in the plan (a
     corner of window ``w`` moves the path by at most ``|slope change| w / 8``, so the
-    margin halves with the window), plus ``w_{k-1} / 2 + w_k`` on each side
+    margin shrinks with the window), plus ``w_{k-1} / 2 + w_k`` on each side
     (:mod:`rfp_twin.planners.smoothing_local`)."""
     u0, u1 = step_span(collision, 0.0)
     k = regions.level(i, u0, u1)
