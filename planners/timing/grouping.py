@@ -51,6 +51,18 @@ def _plan_angles(ptr, steps, angles, i, s, out, col):
     out[col + 1] = angles[lo, 1] + f * (angles[lo + 1, 1] - angles[lo, 1])
 
 
+@njit(cache=True, inline="always")
+def _clearance_at(ptr, steps, angles, base_xy, i, j, s, l_alpha, seg_start, seg_end, thr, q):
+    """Segment distance of robots i, j in the plan at step s, minus ``thr`` (mm); q (4,) scratch."""
+    _plan_angles(ptr, steps, angles, i, s, q, 0)
+    _plan_angles(ptr, steps, angles, j, s, q, 2)
+    a0x, a0y, a1x, a1y = beta_segment(base_xy[i, 0], base_xy[i, 1], q[0], q[1],
+                                      l_alpha, seg_start, seg_end[i])
+    b0x, b0y, b1x, b1y = beta_segment(base_xy[j, 0], base_xy[j, 1], q[2], q[3],
+                                      l_alpha, seg_start, seg_end[j])
+    return segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - thr
+
+
 @njit(cache=True)
 def _pair_clearance_below(ptr, steps, angles, n_steps, base_xy, pairs, l_alpha, seg_start,
                           seg_end, buffer, mu, margin):
@@ -72,13 +84,8 @@ def _pair_clearance_below(ptr, steps, angles, n_steps, base_xy, pairs, l_alpha, 
         best = np.inf
         s = 0.0
         while True:
-            _plan_angles(ptr, steps, angles, i, s, q, 0)
-            _plan_angles(ptr, steps, angles, j, s, q, 2)
-            a0x, a0y, a1x, a1y = beta_segment(base_xy[i, 0], base_xy[i, 1], q[0], q[1],
-                                              l_alpha, seg_start, seg_end[i])
-            b0x, b0y, b1x, b1y = beta_segment(base_xy[j, 0], base_xy[j, 1], q[2], q[3],
-                                              l_alpha, seg_start, seg_end[j])
-            c = segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - thr
+            c = _clearance_at(ptr, steps, angles, base_xy, i, j, s, l_alpha, seg_start,
+                              seg_end, thr, q)
             if c < best:
                 best = c
             if c < margin or s >= n_steps:
@@ -132,13 +139,8 @@ def _pair_clearance_at(ptr, steps, angles, base_xy, i, j, at, l_alpha, seg_start
     q = np.empty(4)
     thr = buffer[i] + buffer[j]
     for k in range(at.size):
-        _plan_angles(ptr, steps, angles, i, at[k], q, 0)
-        _plan_angles(ptr, steps, angles, j, at[k], q, 2)
-        a0x, a0y, a1x, a1y = beta_segment(base_xy[i, 0], base_xy[i, 1], q[0], q[1],
-                                          l_alpha, seg_start, seg_end[i])
-        b0x, b0y, b1x, b1y = beta_segment(base_xy[j, 0], base_xy[j, 1], q[2], q[3],
-                                          l_alpha, seg_start, seg_end[j])
-        out[k] = segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - thr
+        out[k] = _clearance_at(ptr, steps, angles, base_xy, i, j, at[k], l_alpha, seg_start,
+                               seg_end, thr, q)
 
 
 def pair_clearance(plan, geom, i: int, j: int, at) -> np.ndarray:
