@@ -45,7 +45,7 @@ class TimedGroup:
 
 def time_and_simplify(path: SmoothPath, robots: np.ndarray, vmax, amax, tol_robot: np.ndarray, *,
                       grid_steps: float, backend: str, sample_s: float, max_points: int,
-                      moving_range: np.ndarray) -> TimedGroup:
+                      moving_range: np.ndarray, limits: np.ndarray | None = None) -> TimedGroup:
     """Time the group ``robots`` (k,), sample it and simplify every axis.
 
     ``vmax``, ``amax`` (2,) axis limits, deg/s and deg/s^2; ``tol_robot`` (n,) RDP
@@ -66,6 +66,10 @@ def time_and_simplify(path: SmoothPath, robots: np.ndarray, vmax, amax, tol_robo
     s = law.s_at(t)
     k = robots.size
     Y = path.evaluate(s, robots, 0).reshape(t.size, 2 * k)
+    if limits is not None:
+        # the smoothed path is an average of in-limit angles; the local windows' sum of
+        # components can round a hair outside (-2e-14 deg at a 0 deg limit)
+        Y = np.clip(Y, np.tile(limits[:, 0], k), np.tile(limits[:, 1], k))
     tol = np.repeat(tol_robot[robots], 2)
     keep, used = simplify_columns(t, Y, tol, max_points)
     # limits on the piecewise-linear product; a uniform slow-down fixes any excess

@@ -194,6 +194,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         raise field_error(SpecError, "plan.robot_ids", f"{plan.n_robots} robots",
                           f"the {geom.n_robots} robots of the layout, in layout order", "postprocess")
     n = plan.n_robots
+    joint_limits = np.array([spec.alpha_limits_deg, spec.beta_limits_deg], dtype=np.float64)
     verify_buffer = buffer_mm - budget_mm
     stages = {"smooth": 0.0, "group": 0.0, "time": 0.0, "simplify": 0.0, "verify": 0.0}
 
@@ -234,7 +235,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                 groups[g] = time_and_simplify(path, robots, vmax, amax, tol,
                                               grid_steps=grid_steps, backend=backend,
                                               sample_s=sample_s, max_points=max_points,
-                                              moving_range=mrange)
+                                              moving_range=mrange, limits=joint_limits)
         for g in list(groups):
             if not np.any(labels == g):
                 del groups[g]
