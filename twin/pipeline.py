@@ -118,12 +118,17 @@ class PlanOptions:
                                resolve="replace" if self.resolve == "none" else self.resolve)
 
     def field_settings(self):
-        """ApfSettings / CapfSettings on the beta segments (field planners only)."""
+        """ApfSettings / CapfSettings on the beta segments (field planners only).
+
+        Alpha is held within the spec's limits: the pipeline delivers trajectories for the
+        firmware, and a real robot stops at its alpha hard stops (the papers' robots have none).
+        """
         from rfp_twin.planners.apf import ApfSettings, CapfSettings
 
         if self.algorithm == "capf":
-            return CapfSettings(model="segment", gain=self.apf_gain, lambda3=self.lambda3)
-        return ApfSettings(model="segment", gain=self.apf_gain)
+            return CapfSettings(model="segment", gain=self.apf_gain, lambda3=self.lambda3,
+                                enforce_alpha_limits=True)
+        return ApfSettings(model="segment", gain=self.apf_gain, enforce_alpha_limits=True)
 
 
 class Reconfiguration:

@@ -57,6 +57,7 @@ Units: mm, degrees, seconds, plan steps.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any, Callable
 
 import numpy as np
@@ -195,6 +196,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                           f"the {geom.n_robots} robots of the layout, in layout order", "postprocess")
     n = plan.n_robots
     joint_limits = np.array([spec.alpha_limits_deg, spec.beta_limits_deg], dtype=np.float64)
+    plan = _within_limits(plan, joint_limits)
     verify_buffer = buffer_mm - budget_mm
     stages = {"smooth": 0.0, "group": 0.0, "time": 0.0, "simplify": 0.0, "verify": 0.0}
 
@@ -338,6 +340,32 @@ def _smooth(plan: Plan, method: str, window: np.ndarray, pad: float, pre: np.nda
         return smooth_plan_local(src, window, regions, pad, base), int(src.path_step.size)
     return (smooth_plan(src, method=method, window_steps=window, pad_steps=pad),
             int(src.path_step.size))
+
+
+LIMIT_ROUNDING_DEG = 1e-9
+"""How far a plan may sit outside the joint limits and still count as inside (rounding), deg."""
+
+
+def _within_limits(plan: Plan, limits: np.ndarray) -> Plan:
+    """The plan with its breakpoints clipped to the joint limits (2, 2) deg.
+
+    Only rounding (``LIMIT_ROUNDING_DEG``) is clipped, as post-processing clips its samples
+    to remove the rounding of the smoothing sums; a plan that really leaves the limits
+    (e.g. a field planner without alpha stops) is refused, naming the robot.
+    """
+    for ax, name in enumerate(("alpha", "beta")):
+        a = plan.path_angles[:, ax]
+        lo, hi = limits[ax]
+        bad = np.flatnonzero((a < lo - LIMIT_ROUNDING_DEG) | (a > hi + LIMIT_ROUNDING_DEG))
+        if bad.size:
+            robot = int(np.searchsorted(plan.path_ptr, bad[0], side="right") - 1)
+            raise field_error(SpecError, f"plan {name}", f"{a[bad[0]]:.4f} deg",
+                              f"[{lo:g}, {hi:g}] deg (the spec's {name} limits)",
+                              f"postprocess, robot {int(plan.robot_ids[robot])}")
+    clipped = np.clip(plan.path_angles, limits[:, 0], limits[:, 1])
+    if np.array_equal(clipped, plan.path_angles):
+        return plan
+    return replace(plan, path_angles=clipped)
 
 
 def _check_args(budget_mm, buffer_mm, max_points, tolerance_deg, smoothing, window_steps,

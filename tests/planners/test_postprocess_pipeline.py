@@ -174,3 +174,14 @@ def test_plan_must_match_the_layout():
     plan, _ = chase_plan()
     with pytest.raises(SpecError, match="robot_ids"):
         postprocess(plan, make_geom(37, 2.0), verifier=check_trajectory)
+
+
+def test_a_plan_outside_the_joint_limits_is_refused_naming_the_robot():
+    plan, geom = chase_plan()
+    plan.path_angles[1, 0] = -30.0          # robot 1 swings through its alpha stop
+    with pytest.raises(SpecError, match=r"robot 1: field 'plan alpha' = '-30.0000 deg'; "
+                                        r"allowed: \[0, 360\] deg"):
+        postprocess(plan, geom, verifier=check_trajectory)
+    plan.path_angles[1, 0] = -1e-12         # rounding is not an excursion
+    traj, _ = postprocess(plan, geom, verifier=check_trajectory)
+    assert min(a.min() for a in traj.angles[0]) >= 0.0      # samples clipped to the stop

@@ -61,8 +61,13 @@ def test_plan_random_is_the_run_sequence():
 
 
 def test_field_planner_runs_through_the_same_pipeline():
-    out = small(PlanOptions(algorithm="apf"), n=7).run(seed=1)
+    rc = small(PlanOptions(algorithm="apf"), n=7)
+    out = rc.run(seed=1)
     assert out.field is not None and out.ok
+    # the firmware robots have alpha stops: the field planner is held within them
+    for ax, (lo, hi) in enumerate((rc.spec.alpha_limits_deg, rc.spec.beta_limits_deg)):
+        for a in out.trajectory.angles[ax]:
+            assert lo <= a.min() and a.max() <= hi
     assert out.summary()["direction"] == "direct (fold -> targets)"
 
 
