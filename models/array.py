@@ -1,8 +1,11 @@
 """ArrayGeometry: a layout of robots of one spec at one collision buffer, as flat arrays.
 
-This is what the numba kernels consume: robot base positions, per-robot buffers and
-collision segment ends, the Eq. 4 neighbour graph as CSR, and robot-fiducial pairs.
-Indices are robot indices (0..n_robots-1 in layout order), not robot ids.
+This is what the numba kernels consume: robot base positions, each robot's own alpha
+length, collision segment (start, end) and buffer, the Eq. 4 neighbour graph as CSR, the
+obstacles (fiducials as points, guide-camera edges as segments, each with its buffer) and
+robot-obstacle pairs. Indices are robot indices (0..n_robots-1 in layout order), not
+robot ids. Per-robot values come from the layout's optional columns
+(:mod:`rfp_twin.models.layout.columns`) and default to the spec's.
 """
 from __future__ import annotations
 
@@ -14,6 +17,7 @@ import numpy as np
 from rfp_twin.models.errors import SpecError
 from rfp_twin.models.geometry2d import fiducial_distances, pair_distances
 from rfp_twin.models.layout import Layout
+from rfp_twin.models.layout.columns import obstacle_arrays, robot_collision_arrays
 from rfp_twin.models.robot import RobotSpec
 
 #: Sayres 2021 Sect. 4.1 studies buffers 1.5-3.5 mm; anything in (0, pitch/2) is allowed.
@@ -55,19 +59,53 @@ class ArrayGeometry:
         return np.asarray(self.layout.robot_ids, dtype=np.int64)
 
     @cached_property
+    def _robot_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        return robot_collision_arrays(self.spec, self.layout, float(self.buffer_mm))
+
+    @property
     def buffer(self) -> np.ndarray:
-        """(n,) float64 collision buffer of each robot, mm."""
-        return np.full(self.n_robots, float(self.buffer_mm))
+        """(n,) float64 collision buffer of each robot, mm: the run's ``buffer_mm`` plus
+        the layout's ``buffer_add_mm`` of that robot (0 where blank)."""
+        return self._robot_arrays[3]
+
+    @property
+    def alpha_len(self) -> np.ndarray:
+        """(n,) float64 alpha arm length of each robot (alpha axis to beta axis), mm."""
+        return self._robot_arrays[0]
+
+    @property
+    def seg_start(self) -> np.ndarray:
+        """(n,) float64 start of each robot's beta collision segment, mm from its beta axis."""
+        return self._robot_arrays[1]
+
+    @property
+    def seg_end(self) -> np.ndarray:
+        """(n,) float64 end of each robot's beta collision segment, mm (the spec's end at
+        its own buffer, shifted by its metrology fiber's offset; see
+        :func:`rfp_twin.models.layout.columns.robot_collision_arrays`)."""
+        return self._robot_arrays[2]
 
     @cached_property
-    def seg_end(self) -> np.ndarray:
-        """(n,) float64 end of each robot's beta collision segment, mm."""
-        return np.full(self.n_robots, self.spec.segment_end(float(self.buffer_mm)))
+    def uniform(self) -> bool:
+        """True when every robot has the spec's geometry and the run's buffer."""
+        return bool(np.all(self.alpha_len == self.spec.alpha_length_mm)
+                    and np.all(self.seg_start == self.spec.segment_start_mm)
+                    and np.all(self.seg_end == self.spec.segment_end(float(self.buffer_mm)))
+                    and np.all(self.buffer == self.buffer_mm))
+
+    @cached_property
+    def collision_reach(self) -> float:
+        """Largest base-to-collision-body distance of any robot, buffer included, mm."""
+        return float(np.max(self.alpha_len + np.maximum(self.seg_end, self.seg_start)
+                            + self.buffer)) if self.n_robots else 0.0
 
     # -- robot neighbours (Eq. 4) --------------------------------------------------
     @cached_property
     def _nbr_csr(self) -> tuple[np.ndarray, np.ndarray]:
-        ptr, idx = self.layout.neighbour_csr(self.spec.neighbour_reach_mm(float(self.buffer_mm)))
+        reach = self.spec.neighbour_reach_mm(float(self.buffer_mm))
+        if not self.uniform:
+            reach = max(reach, 2.0 * self.collision_reach)
+        ptr, idx = self.layout.neighbour_csr(reach)
         return np.asarray(ptr, dtype=np.int64), np.asarray(idx, dtype=np.int64)
 
     @property
@@ -96,8 +134,23 @@ class ArrayGeometry:
     # -- fiducials -----------------------------------------------------------------
     @cached_property
     def fid_xy(self) -> np.ndarray:
-        """(m, 2) float64 fiducial centres, mm."""
+        """(m, 2) float64 obstacle centres (a fiducial) or first ends (a segment), mm."""
         return np.ascontiguousarray(self.layout.fiducial_xy, dtype=np.float64).reshape(-1, 2)
+
+    @cached_property
+    def _obstacles(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return obstacle_arrays(self.spec, self.layout)
+
+    @property
+    def fid_end_xy(self) -> np.ndarray:
+        """(m, 2) float64 second end of each obstacle, mm (== ``fid_xy`` for a point)."""
+        return self._obstacles[1]
+
+    @property
+    def fid_buffer(self) -> np.ndarray:
+        """(m,) float64 keep-out radius of each obstacle, mm (spec ``fiducial_buffer_mm``
+        where the layout's ``obstacle_buffer_mm`` is blank)."""
+        return self._obstacles[2]
 
     @cached_property
     def fiducial_ids(self) -> np.ndarray:
@@ -108,6 +161,12 @@ class ArrayGeometry:
     def _fid_csr(self) -> tuple[np.ndarray, np.ndarray]:
         b = float(self.buffer_mm)
         reach = self.spec.collision_reach_mm(b) + self.spec.fiducial_buffer_mm
+        if not self.uniform or self.fid_buffer.size and (
+                np.any(self.fid_buffer != self.spec.fiducial_buffer_mm)
+                or np.any(self.fid_end_xy != self.fid_xy)):
+            reach = max(reach, self.collision_reach + float(self.fid_buffer.max(initial=0.0)))
+            return _obstacles_within(self.base_xy, self.fid_xy, self.fid_end_xy,
+                                     reach + self.fid_buffer - self.spec.fiducial_buffer_mm)
         ptr, idx = self.layout.robot_fiducial_csr(reach)
         return np.asarray(ptr, dtype=np.int64), np.asarray(idx, dtype=np.int64)
 
@@ -148,6 +207,20 @@ class ArrayGeometry:
                                self.robot_fid_pairs, self.fid_xy, self.spec.alpha_length_mm,
                                self.spec.segment_start_mm, self.seg_end)
         return d - self.buffer[self.robot_fid_pairs[:, 0]] - self.fiducial_buffer
+
+
+def _obstacles_within(base: np.ndarray, a: np.ndarray, b: np.ndarray,
+                      reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """CSR (ptr (n + 1,), idx) of the obstacles (segments ``a``-``b``, (m, 2) mm) whose
+    distance to each robot base (n, 2) is within that obstacle's ``reach`` (m,) mm."""
+    u = b - a
+    den = np.maximum(np.einsum("ij,ij->i", u, u), 1e-300)
+    rel = base[:, None, :] - a[None, :, :]
+    t = np.clip(np.einsum("nmk,mk->nm", rel, u) / den, 0.0, 1.0)
+    d = np.hypot(*(rel - t[..., None] * u[None]).transpose(2, 0, 1))
+    near = d <= reach[None, :] + 1e-9
+    ptr = np.concatenate([[0], np.cumsum(near.sum(axis=1))]).astype(np.int64)
+    return ptr, np.nonzero(near)[1].astype(np.int64)
 
 
 def _csr_rows(ptr: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ from scipy.spatial import cKDTree
 from rfp_twin.models.errors import LayoutError
 
 #: Allowed values of the ``kind`` column.
-KINDS = ("robot", "fiducial")
+KINDS = ("robot", "fiducial", "gfa")
 
 
 def readonly(a: np.ndarray) -> np.ndarray:

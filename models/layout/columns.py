@@ -1,0 +1,193 @@
+"""Optional per-position columns of a layout: each robot's own geometry, each obstacle's shape.
+
+A layout (:class:`rfp_twin.models.layout.Layout`) keeps any extra CSV column in ``extra``.
+The columns named here have a meaning: when present they override the robot spec for
+that robot (or obstacle), so a calibrated instrument is a layout with these columns
+(:mod:`rfp_twin.models.instrument`) and a user's CSV can carry them too. A blank cell
+means "the spec's value" (or "not carried" for a fiber).
+
+Robot columns (mm and deg; plane frame, see :mod:`rfp_twin.models.instrument.frames`):
+
+========================  ===============================================================
+``alpha_len_mm``          alpha axis to beta axis (spec ``alpha_length_mm``)
+``met_x_mm, met_y_mm``    metrology fiber in the beta-arm frame (spec fiber ``metrology``)
+``boss_x_mm, boss_y_mm``  BOSS fiber (blank: not carried)
+``apogee_x_mm, ...y_mm``  APOGEE fiber (blank: not carried)
+``alpha_offset_deg``      model angle of the alpha encoder's zero (model = encoder + offset)
+``beta_offset_deg``       same for beta
+``buffer_add_mm``         added to the run's collision buffer for this robot (worn robots)
+``z_mm``                  height of the robot's base above the wok's reference plane
+``kx, ky, kz``            the robot's axis (unit), plane frame; blank: (0, 0, 1)
+========================  ===============================================================
+
+Obstacle columns (rows of kind ``fiducial`` or ``gfa``):
+
+========================  ===============================================================
+``x2_mm, y2_mm``          other end of a segment obstacle (a GFA chip edge); blank: a point
+``obstacle_buffer_mm``    keep-out radius around it (blank: spec ``fiducial_buffer_mm``)
+========================  ===============================================================
+
+Every reader returns a float64 array in layout order of robots (or obstacles) and raises
+:class:`rfp_twin.models.errors.LayoutError` naming the layout, the id and the column for a
+cell that is not a number or out of its range.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rfp_twin.models.errors import LayoutError
+
+#: Fibers a robot may carry, in the order of :func:`robot_fibers` (axis 1).
+FIBERS = ("metrology", "boss", "apogee")
+FIBER_COLUMNS = {"metrology": ("met_x_mm", "met_y_mm"), "boss": ("boss_x_mm", "boss_y_mm"),
+                 "apogee": ("apogee_x_mm", "apogee_y_mm")}
+
+#: Nominal metrology fiber x of the SDSS-V beta arm, mm (coordio defaults). A robot whose
+#: ``met_x_mm`` differs has its beta collision segment shifted along its arm by the
+#: difference: the head that carries the fibers sits where its fibers were measured.
+NOMINAL_MET_X_MM = 14.314
+
+#: Column -> allowed closed range of its values.
+ROBOT_COLUMNS = {
+    "alpha_len_mm": (0.1, 1000.0),
+    "met_x_mm": (0.1, 1000.0), "met_y_mm": (-100.0, 100.0),
+    "boss_x_mm": (0.1, 1000.0), "boss_y_mm": (-100.0, 100.0),
+    "apogee_x_mm": (0.1, 1000.0), "apogee_y_mm": (-100.0, 100.0),
+    "alpha_offset_deg": (-180.0, 180.0), "beta_offset_deg": (-180.0, 180.0),
+    "buffer_add_mm": (-100.0, 100.0),
+    "z_mm": (-1000.0, 1000.0),
+    "kx": (-1.0, 1.0), "ky": (-1.0, 1.0), "kz": (0.0, 1.0),
+}
+OBSTACLE_COLUMNS = {
+    "x2_mm": (-1e5, 1e5), "y2_mm": (-1e5, 1e5), "obstacle_buffer_mm": (0.0, 100.0),
+}
+
+
+def _cell(cell) -> float | None:
+    """A cell as a float; None when blank (empty text or NaN); NaN when not a number."""
+    if isinstance(cell, (int, float, np.integer, np.floating)):
+        value = float(cell)
+    else:
+        text = str(cell).strip()
+        if text == "":
+            return None
+        try:
+            value = float(text)
+        except ValueError:
+            return math.nan
+    return None if math.isnan(value) else value
+
+
+def _column(layout, name: str, rows: np.ndarray, default: float, bounds) -> np.ndarray:
+    """Column ``name`` of the positions ``rows`` (k,) as float64; blank -> ``default``."""
+    out = np.full(rows.size, float(default))
+    raw = layout.extra.get(name)
+    if raw is None:
+        return out
+    lo, hi = bounds
+    for k, r in enumerate(rows):
+        value = _cell(raw[r])
+        if value is None:
+            continue
+        if not (math.isfinite(value) and lo <= value <= hi):
+            raise LayoutError(f"{layout.name}: id {int(layout.ids[r])} field {name!r} = "
+                              f"{raw[r]!r}; allowed: a number in [{lo:g}, {hi:g}] or blank")
+        out[k] = value
+    return out
+
+
+def robot_column(layout, name: str, default: float) -> np.ndarray:
+    """(n_robots,) float64 values of robot column ``name``; ``default`` where blank/absent."""
+    return _column(layout, name, np.flatnonzero(layout.robot_mask), default, ROBOT_COLUMNS[name])
+
+
+def obstacle_column(layout, name: str, default: float) -> np.ndarray:
+    """(n_obstacles,) float64 values of obstacle column ``name`` (non-robot rows)."""
+    return _column(layout, name, np.flatnonzero(~layout.robot_mask), default,
+                   OBSTACLE_COLUMNS[name])
+
+
+def robot_fibers(layout, nominal: dict[str, tuple[float, float]]) -> np.ndarray:
+    """(n_robots, 3, 2) float64 fiber positions in the beta-arm frame, mm, axis 1 in
+    :data:`FIBERS` order; NaN where a robot does not carry that fiber.
+
+    ``nominal`` maps a fiber name to the spec's (x, y); a layout without any fiber column
+    gives every robot the spec's fibers; with fiber columns, a blank cell means "not
+    carried" (except the metrology fiber, which every robot has).
+    """
+    n = layout.n_robots
+    out = np.full((n, len(FIBERS), 2), np.nan)
+    has_columns = any(c in layout.extra for cols in FIBER_COLUMNS.values() for c in cols)
+    for f, fiber in enumerate(FIBERS):
+        nom = nominal.get(fiber, (math.nan, math.nan))
+        default = nom if (not has_columns or fiber == "metrology") else (math.nan, math.nan)
+        for ax, col in enumerate(FIBER_COLUMNS[fiber]):
+            out[:, f, ax] = robot_column(layout, col, default[ax])
+    bad = np.flatnonzero(np.isnan(out[:, :, 0]) != np.isnan(out[:, :, 1]))
+    if bad.size:
+        r = bad[0] // len(FIBERS)
+        raise LayoutError(f"{layout.name}: id {int(layout.robot_ids[r])} has one of "
+                          f"{FIBER_COLUMNS[FIBERS[bad[0] % len(FIBERS)]]} blank; allowed: "
+                          "both or neither")
+    return out
+
+
+def segment_shift(layout) -> np.ndarray:
+    """(n_robots,) float64 shift of each beta collision segment along its arm, mm:
+    ``met_x_mm - NOMINAL_MET_X_MM`` where the layout has a metrology column, else 0."""
+    if "met_x_mm" not in layout.extra:
+        return np.zeros(layout.n_robots)
+    return robot_column(layout, "met_x_mm", NOMINAL_MET_X_MM) - NOMINAL_MET_X_MM
+
+
+def robot_buffers(spec, layout, buffer_mm: float) -> np.ndarray:
+    """(n_robots,) float64 collision buffer of each robot: ``buffer_mm`` plus its
+    ``buffer_add_mm``, mm; LayoutError naming the robot when one leaves (0, pitch / 2)."""
+    add = robot_column(layout, "buffer_add_mm", 0.0)
+    out = float(buffer_mm) + add
+    bad = np.flatnonzero((out <= 0.0) | (out >= spec.pitch_mm / 2))
+    if bad.size:
+        k = int(bad[0])
+        raise LayoutError(f"{layout.name}: robot {int(layout.robot_ids[k])} field "
+                          f"'buffer_add_mm' = {add[k]!r} gives a buffer of {out[k]:.3f} mm; "
+                          f"allowed: buffer_mm + buffer_add_mm in (0, {spec.pitch_mm / 2}) mm")
+    return out
+
+
+def robot_collision_arrays(spec, layout, buffer_mm: float):
+    """Each robot's own 2D collision body (Sayres 2021 Eq. 3 with per-robot values).
+
+    Returns ``(alpha_len, seg_start, seg_end, buffer)``, four (n_robots,) float64 arrays
+    in mm: alpha axis to beta axis, the beta collision segment's start and end along the
+    beta arm (the spec's, at that robot's buffer, shifted by :func:`segment_shift`), and
+    the buffer (:func:`robot_buffers`).
+    """
+    buffer = robot_buffers(spec, layout, buffer_mm)
+    alpha_len = robot_column(layout, "alpha_len_mm", spec.alpha_length_mm)
+    shift = segment_shift(layout)
+    seg_start = np.maximum(spec.segment_start_mm + shift, 0.0)
+    ends = np.array([spec.segment_end(b) for b in buffer], dtype=np.float64).reshape(-1)
+    seg_end = np.maximum(ends + shift, seg_start)
+    return alpha_len, seg_start, seg_end, buffer
+
+
+def obstacle_arrays(spec, layout):
+    """The obstacles (non-robot rows, layout order) as buffered segments.
+
+    Returns ``(a, b, buffer)``: (m, 2) first ends, (m, 2) second ends (== ``a`` for a
+    point obstacle such as a fiducial), mm, and (m,) keep-out radii, mm.
+    """
+    a = np.ascontiguousarray(layout.fiducial_xy, dtype=np.float64).reshape(-1, 2)
+    b = a.copy()
+    b[:, 0] = obstacle_column(layout, "x2_mm", math.nan)
+    b[:, 1] = obstacle_column(layout, "y2_mm", math.nan)
+    point = np.isnan(b).any(axis=1)
+    b[point] = a[point]
+    return a, b, obstacle_column(layout, "obstacle_buffer_mm", spec.fiducial_buffer_mm)
+
+
+def has_robot_geometry(layout) -> bool:
+    """True when the layout carries any per-robot geometry column."""
+    return any(c in layout.extra for c in ROBOT_COLUMNS)
