@@ -1,6 +1,8 @@
 """A layout from its name, as the command line gives it.
 
-Names: ``sdss-v-fps`` (the real SDSS-V focal plane: 500 robots, 60 fiducials),
+Names: ``sdss-v-fps`` (the SDSS-V design focal plane: 500 robots, 60 fiducials), the
+calibrated instruments ``sdss-v-apo``, ``sdss-v-lco``, ``sdss-v-curved``
+(:mod:`rfp_twin.models.instrument`) or a calibration folder,
 ``sdss-v-547`` (the all-robot 13-ring grid of Sayres 2021 Sect. 3.2), ``hex:N`` (a
 centred hex grid of N positions: 7, 19, 37, 61, 91, ...) or the path of a layout CSV.
 Pitch in mm; fiducial ids turn positions of a generated grid into fiducials. A bad name
@@ -17,6 +19,10 @@ from rfp_twin.models.errors import LayoutError
 from rfp_twin.models.layout.core import Layout
 
 
+#: Layouts that are not generated grids: the design focal plane and the calibrated instruments.
+FIXED_LAYOUTS = ("sdss-v-fps", "sdss-v-apo", "sdss-v-lco", "sdss-v-curved")
+
+
 def default_layout_name(spec) -> str:
     """The layout a robot spec plans on by default: ``sdss-v-fps`` for the SDSS-V
     presets, ``hex:547`` otherwise."""
@@ -24,7 +30,9 @@ def default_layout_name(spec) -> str:
 
 
 def layout_by_name(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = ()) -> Layout:
-    """Layout from a name: ``sdss-v-fps`` (the real 500-robot instrument), ``sdss-v-547``
+    """Layout from a name: ``sdss-v-fps`` (the 500-robot design focal plane),
+    ``sdss-v-apo`` / ``sdss-v-lco`` / ``sdss-v-curved`` (calibrated instruments, or the path
+    of a calibration folder: :func:`rfp_twin.models.instrument.instrument_layout`), ``sdss-v-547``
     (the paper's all-robot grid), ``hex:N`` (a hex grid of N positions: 7, 19, 37, 61, 91,
     ...), or a CSV path.
 
@@ -45,11 +53,14 @@ def layout_by_name(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = (
     UnknownRobotError
         A fiducial id that is not a position of the grid.
     """
-    if fiducial_ids and (name == "sdss-v-fps" or not (name == "sdss-v-547" or name.startswith("hex:"))):
+    if fiducial_ids and (name in FIXED_LAYOUTS or not (name == "sdss-v-547" or name.startswith("hex:"))):
         raise LayoutError(f"--fiducials applies to generated grids (sdss-v-547, hex:N), not {name!r}; "
                           "a CSV layout says each position's kind itself")
     if name == "sdss-v-fps":
         return Layout.sdss_v_fps()
+    from rfp_twin.models.instrument.layout import INSTRUMENTS, instrument_layout
+    if name in INSTRUMENTS or Path(name).is_dir():
+        return instrument_layout(name)
     if name == "sdss-v-547":
         return Layout.sdss_v_grid(pitch_mm=pitch_mm, fiducial_ids=fiducial_ids)
     if name.startswith("hex:"):
@@ -66,5 +77,6 @@ def layout_by_name(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = (
         return grid
     path = Path(name)
     if path.suffix.lower() != ".csv" and not path.exists():
-        raise LayoutError(f"layout {name!r}: allowed: sdss-v-fps, sdss-v-547, hex:N or a CSV file")
+        raise LayoutError(f"layout {name!r}: allowed: {', '.join(FIXED_LAYOUTS)}, sdss-v-547, "
+                          "hex:N, a CSV file or a calibration folder")
     return Layout.from_csv(path, min_separation_mm=min(1.0, pitch_mm / 4))

@@ -93,7 +93,7 @@ def _column(layout, name: str, rows: np.ndarray, default: float, bounds) -> np.n
             continue
         if not (math.isfinite(value) and lo <= value <= hi):
             raise LayoutError(f"{layout.name}: id {int(layout.ids[r])} field {name!r} = "
-                              f"{raw[r]!r}; allowed: a number in [{lo:g}, {hi:g}] or blank")
+                              f"{str(raw[r])!r}; allowed: a number in [{lo:g}, {hi:g}] or blank")
         out[k] = value
     return out
 

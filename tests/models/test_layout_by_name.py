@@ -34,7 +34,7 @@ def test_hex_grids_by_position_count():
     ("hex:7", (99,), UnknownRobotError, ["99", "0..6"]),
     ("sdss-v-fps", (3,), LayoutError, ["--fiducials applies to generated grids", "'sdss-v-fps'"]),
     ("grid.csv", (3,), LayoutError, ["--fiducials", "a CSV layout says each position's kind"]),
-    ("sdss-v", (), LayoutError, ["'sdss-v'", "allowed: sdss-v-fps, sdss-v-547, hex:N or a CSV"]),
+    ("sdss-v", (), LayoutError, ["'sdss-v'", "allowed: sdss-v-fps, sdss-v-apo, sdss-v-lco, sdss-v-curved, sdss-v-547, hex:N, a CSV"]),
     ("missing.csv", (), LayoutError, ["missing.csv: file not found"]),
 ])
 def test_bad_names_get_one_line_errors(name, fiducials, error, words):

@@ -117,9 +117,10 @@ def test_production_segment_end_formula(cb):
 def test_production_extends_sdss_v():
     base, prod = load_spec("sdss-v"), load_spec("sdss-v-production")
     for f in ("alpha_length_mm", "beta_length_mm", "pitch_mm", "alpha_limits_deg",
-              "beta_limits_deg", "max_speed_deg_s", "fold_deg", "angular_error_deg",
-              "fiducial_buffer_mm"):
+              "beta_limits_deg", "max_speed_deg_s", "fold_deg", "angular_error_deg"):
         assert getattr(prod, f) == getattr(base, f), f
+    # production keeps fiducials 3 mm away (kaiju's fiducial buffer), the paper preset 1.5
+    assert (prod.fiducial_buffer_mm, base.fiducial_buffer_mm) == (3.0, 1.5)
     assert "extends" not in load_tables("sdss-v-production")
 
 

@@ -13,6 +13,7 @@ import typer
 from rich.table import Table
 
 from rfp_twin.models.errors import LayoutError, TargetError
+from rfp_twin.twin.cli.layout_option import CALIBRATION_HELP, LAYOUT_HELP, chosen_layout
 from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, console, fail,
                                   one_line_errors, progress_bar)
 
@@ -45,8 +46,8 @@ def parse_offline(items: list[str], fold_deg: tuple[float, float]) -> dict[int, 
 @one_line_errors
 def plan(
     preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
-    layout: Optional[str] = typer.Option(None, help="sdss-v-fps | sdss-v-547 | hex:N | CSV file "
-                                         "[default: sdss-v-fps for SDSS-V presets, hex:547 otherwise]"),
+    layout: Optional[str] = typer.Option(None, help=LAYOUT_HELP),
+    calibration: Optional[Path] = typer.Option(None, help=CALIBRATION_HELP),
     fiducials: str = typer.Option("", help="Comma-separated position ids that are fiducials "
                                   "(generated grids only)."),
     buffer: Optional[float] = typer.Option(None, help="Collision buffer sigma_cb, mm [default: preset]."),
@@ -87,7 +88,6 @@ def plan(
     acceleration limits (interacting robots share one path parameter), simplified to at most
     --max-points per axis and verified again at buffer - budget."""
     from rfp_twin.models.robot import load_spec
-    from rfp_twin.models.layout import default_layout_name
     from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 
     t_start = time.perf_counter()
@@ -96,7 +96,7 @@ def plan(
                           apf_gain=apf_gain, lambda3=lambda3, raw=raw, budget_mm=budget,
                           max_points=max_points, timing_backend=timing_backend)
     spec = load_spec(preset)
-    layout = layout or default_layout_name(spec)
+    layout = chosen_layout(layout, calibration, spec)
     rc = Reconfiguration.from_names(spec, layout, buffer_mm=buffer,
                                     fiducial_ids=parse_ids(fiducials, "--fiducials"),
                                     options=options, offline=parse_offline(offline, spec.fold_deg))

@@ -12,6 +12,7 @@ from typing import Optional
 import typer
 
 from rfp_twin.models.errors import RfpError
+from rfp_twin.twin.cli.layout_option import CALIBRATION_HELP, LAYOUT_HELP, chosen_layout
 from rfp_twin.twin.cli.console import (EXIT_COLLISION, console, err_console, fail, one_line_errors,
                                   progress_bar)
 from rfp_twin.twin.cli.plan import parse_ids
@@ -45,17 +46,18 @@ def parse_faults(stuck: list[str], slow: list[str], offset: list[str]) -> list:
 def model_export(
     out: Path = typer.Option(..., help="Folder for rfp-twin.xml and meshes/."),
     preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
-    layout: Optional[str] = typer.Option(None, help="sdss-v-fps | sdss-v-547 | hex:N | CSV file."),
+    layout: Optional[str] = typer.Option(None, help=LAYOUT_HELP),
+    calibration: Optional[Path] = typer.Option(None, help=CALIBRATION_HELP),
     fiducials: str = typer.Option("", help="Comma-separated fiducial ids (generated grids)."),
     timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
 ) -> None:
     """Write the MuJoCo model (MJCF + STL meshes); MuJoCo's own viewer opens it."""
     from rfp_twin.models.mjcf import ModelOptions, export_model
     from rfp_twin.models.robot import load_spec
-    from rfp_twin.models.layout import default_layout_name, layout_by_name
+    from rfp_twin.models.layout import layout_by_name
 
     spec = load_spec(preset)
-    lay = layout_by_name(layout or default_layout_name(spec), spec.pitch_mm,
+    lay = layout_by_name(chosen_layout(layout, calibration, spec), spec.pitch_mm,
                          parse_ids(fiducials, "--fiducials"))
     path = export_model(spec, lay, out, options=ModelOptions(timestep_s=timestep))
     console.print(f"wrote {path} ({lay.n_robots} robots, {lay.n_fiducials} fiducials)")
