@@ -1,9 +1,19 @@
 """Targets from a CSV file: one row per robot, angles or fiber positions.
 
-Columns: ``robot_id`` and either ``alpha_deg,beta_deg`` or ``x_mm,y_mm`` (the fiber
-position in the focal plane, solved right-armed with inverse kinematics). Every robot
-needs exactly one row; a file that names a robot twice, names an unknown robot, leaves
-one out or holds NaN is refused with the file, line and field.
+Columns: ``robot_id`` and one of
+
+- ``alpha_deg,beta_deg``: model angles;
+- ``x_mm,y_mm``: a fiber's position in the layout's (planning) frame;
+- ``x_wok_mm,y_wok_mm``: a fiber's position in the wok frame, as astronomers give it
+  (calibrated instruments only; :func:`rfp_twin.models.instrument.wok_to_plane`).
+
+Positions are solved right-armed with each robot's own alpha arm and fiber
+(:func:`rfp_twin.models.kinematics.inverse_fiber`). An optional ``fiber`` column names the
+fiber of each row (``metrology``, ``boss``, ``apogee``); without it a layout that carries
+fibers uses the metrology fiber and other layouts the spec's fiber (``beta_length_mm``).
+Every robot needs exactly one row; a file that names a robot twice, names an unknown
+robot, leaves one out, holds NaN, names a fiber the robot does not carry or a position
+out of its reach is refused with the file, line and field.
 """
 from __future__ import annotations
 
@@ -14,10 +24,14 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import TargetError
-from rfp_twin.models.kinematics import inverse
+from rfp_twin.models.kinematics import inverse, inverse_fiber
+from rfp_twin.models.layout.columns import FIBER_COLUMNS, FIBERS, robot_fibers
 
 ANGLE_COLUMNS = ("alpha_deg", "beta_deg")
 XY_COLUMNS = ("x_mm", "y_mm")
+WOK_COLUMNS = ("x_wok_mm", "y_wok_mm")
+#: Nominal SDSS-V fibers in the beta-arm frame, mm (coordio), for layouts without fiber columns.
+NOMINAL_FIBERS = {"metrology": (14.314, 0.0), "boss": (14.965, -0.376), "apogee": (14.965, 0.376)}
 
 
 def read_targets_csv(path: str | Path, geom: ArrayGeometry) -> np.ndarray:
@@ -33,14 +47,21 @@ def read_targets_csv(path: str | Path, geom: ArrayGeometry) -> np.ndarray:
         raise TargetError(f"{path}: no target rows")
     cols = set(rows[0])
     by_angles = set(ANGLE_COLUMNS) <= cols
-    by_xy = set(XY_COLUMNS) <= cols
+    by_wok = set(WOK_COLUMNS) <= cols
+    by_xy = set(XY_COLUMNS) <= cols or by_wok
     if "robot_id" not in cols or not (by_angles or by_xy):
         raise TargetError(f"{path}: columns {sorted(cols)}; allowed: robot_id with alpha_deg,beta_deg "
-                          "or x_mm,y_mm")
+                          "or x_mm,y_mm or x_wok_mm,y_wok_mm")
+    if by_wok and "hole_id" not in geom.layout.extra:
+        raise TargetError(f"{path}: columns x_wok_mm,y_wok_mm on layout {geom.layout.name!r}; "
+                          "allowed: wok positions on a calibrated instrument (sdss-v-apo, "
+                          "sdss-v-lco, sdss-v-curved, a calibration folder), else x_mm,y_mm")
     vals = np.full((geom.n_robots, 2), np.nan)
+    fiber_of = np.full(geom.n_robots, "", dtype=object)
+    line_of = np.zeros(geom.n_robots, dtype=np.int64)
     index = {int(r): k for k, r in enumerate(geom.robot_ids)}
     first_line: dict[int, int] = {}
-    keys = ANGLE_COLUMNS if by_angles else XY_COLUMNS
+    keys = ANGLE_COLUMNS if by_angles else (WOK_COLUMNS if by_wok else XY_COLUMNS)
     for line, row in enumerate(rows, start=2):
         try:
             rid = int(row["robot_id"])
@@ -56,12 +77,43 @@ def read_targets_csv(path: str | Path, geom: ArrayGeometry) -> np.ndarray:
         first_line[rid] = line
         if not np.all(np.isfinite(v)):
             raise TargetError(f"{path}:{line}: robot {rid}: NaN/inf target; allowed: finite numbers")
+        fiber = (row.get("fiber") or "").strip().lower()
+        if fiber and fiber not in FIBERS:
+            raise TargetError(f"{path}:{line}: robot {rid}: field 'fiber' = {row['fiber']!r}; "
+                              f"allowed: {', '.join(FIBERS)}")
         vals[index[rid]] = v
+        fiber_of[index[rid]] = fiber
+        line_of[index[rid]] = line
     missing = np.flatnonzero(np.isnan(vals[:, 0]))
     if missing.size:
         raise TargetError(f"{path}: robot {int(geom.robot_ids[missing[0]])} has no target row "
                           f"({missing.size} robot(s) missing)")
-    if by_xy:
-        vals = inverse(geom.base_xy, vals, spec.alpha_length_mm, spec.beta_length_mm,
+    if not by_xy:
+        return vals
+    if by_wok:
+        from rfp_twin.models.instrument import wok_to_plane
+        vals = wok_to_plane(vals)
+    has_fibers = any(c in geom.layout.extra for c in FIBER_COLUMNS["metrology"])
+    if not has_fibers and not np.any(fiber_of != ""):
+        return inverse(geom.base_xy, vals, spec.alpha_length_mm, spec.beta_length_mm,
                        right_arm=True, ids=geom.robot_ids)
-    return vals
+    return _solve_fibers(path, geom, vals, fiber_of, line_of)
+
+
+def _solve_fibers(path: Path, geom: ArrayGeometry, xy: np.ndarray, fiber_of: np.ndarray,
+                  line_of: np.ndarray) -> np.ndarray:
+    """Model angles (n, 2) deg putting each row's fiber (metrology where blank) on ``xy``
+    (n, 2) mm, with each robot's own alpha arm and fibers; errors name the file line."""
+    fibers = robot_fibers(geom.layout, NOMINAL_FIBERS)
+    out = np.empty_like(xy)
+    for f, fiber in enumerate(FIBERS):
+        rows = np.flatnonzero((fiber_of == fiber) | ((fiber_of == "") & (fiber == "metrology")))
+        if rows.size == 0:
+            continue
+        try:
+            out[rows] = inverse_fiber(geom.base_xy[rows], xy[rows], geom.alpha_len[rows],
+                                      fibers[rows, f], ids=geom.robot_ids[rows], fiber=fiber)
+        except TargetError as exc:
+            k = rows[getattr(exc, "index", 0)]
+            raise TargetError(f"{path}:{int(line_of[k])}: field 'fiber' = {fiber!r}: {exc}") from None
+    return out
