@@ -194,20 +194,25 @@ class ArrayGeometry:
         return float(self.spec.fiducial_buffer_mm)
 
     def pair_clearance(self, angles: np.ndarray) -> np.ndarray:
-        """Eq. 3 clearance D_ij - (sigma_i + sigma_j) of every neighbour pair, mm. (p,)"""
+        """Eq. 3 clearance D_ij - (sigma_i + sigma_j) of every neighbour pair, mm. (p,)
+
+        ``angles`` (n, 2) deg; each robot's own alpha length, segment and buffer."""
         d = pair_distances(self.base_xy, np.ascontiguousarray(angles, dtype=np.float64), self.pairs,
-                           self.spec.alpha_length_mm, self.spec.segment_start_mm, self.seg_end)
+                           self.alpha_len, self.seg_start, self.seg_end)
         return d - self.buffer[self.pairs[:, 0]] - self.buffer[self.pairs[:, 1]]
 
     def fiducial_clearance(self, angles: np.ndarray) -> np.ndarray:
-        """Clearance of every (robot, fiducial) pair, mm. (q,)"""
+        """Clearance D_if - (sigma_i + fid_buffer_f) of every (robot, obstacle) pair, mm. (q,)
+
+        ``D_if``: distance from robot i's beta segment to obstacle f (a point, or the
+        segment ``fid_xy[f]``-``fid_end_xy[f]``)."""
         if self.robot_fid_pairs.shape[0] == 0:
             return np.zeros(0)
         d = fiducial_distances(self.base_xy, np.ascontiguousarray(angles, dtype=np.float64),
-                               self.robot_fid_pairs, self.fid_xy, self.spec.alpha_length_mm,
-                               self.spec.segment_start_mm, self.seg_end)
-        return d - self.buffer[self.robot_fid_pairs[:, 0]] - self.fiducial_buffer
-
+                               self.robot_fid_pairs, self.fid_xy, self.alpha_len,
+                               self.seg_start, self.seg_end, self.fid_end_xy)
+        return (d - self.buffer[self.robot_fid_pairs[:, 0]]
+                - self.fid_buffer[self.robot_fid_pairs[:, 1]])
 
 def _obstacles_within(base: np.ndarray, a: np.ndarray, b: np.ndarray,
                       reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -5,14 +5,17 @@ Lengths in mm, angles in degrees at the public boundary (radians inside).
 
 A robot's collision body is the segment from ``start`` to ``end`` mm along its beta
 arm (measured from the beta axis), thickened by a buffer; two robots collide when the
-segment distance is ``<= buffer_i + buffer_j`` (Eq. 3). A fiducial is a disk.
+segment distance is ``<= buffer_i + buffer_j`` (Eq. 3). Every robot may have its own
+alpha arm length and segment (per-robot arrays, :mod:`rfp_twin.models.layout.columns`).
+An obstacle is a disk (a fiducial) or a buffered segment (a guide-camera edge).
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 DEG = math.pi / 180.0
 
@@ -128,15 +131,30 @@ def beta_segment(bx, by, alpha_deg, beta_deg, l_alpha, s0, s1):
     return ex + s0 * c, ey + s0 * s, ex + s1 * c, ey + s1 * s
 
 
+def _per_robot(values, i):
+    """``values[i]`` for a per-robot array, ``values`` itself for a scalar (the same
+    value for every robot). Usable in numba kernels (see the overload below)."""
+    return values if np.ndim(values) == 0 else values[i]
+
+
+@overload(_per_robot, inline="always")
+def _per_robot_nb(values, i):
+    if isinstance(values, types.Array):
+        return lambda values, i: values[i]
+    return lambda values, i: values
+
+
 @njit(cache=True, inline="always")
-def _robot_segment(base_xy, angles, i, l_alpha, s0, seg_end):
-    """:func:`beta_segment` of robot index ``i`` (rows of ``base_xy``, ``angles``, ``seg_end``)."""
-    return beta_segment(base_xy[i, 0], base_xy[i, 1], angles[i, 0], angles[i, 1], l_alpha, s0,
-                        seg_end[i])
+def _robot_segment(base_xy, angles, i, alpha_len, seg_start, seg_end):
+    """:func:`beta_segment` of robot index ``i``: row ``i`` of ``base_xy`` (n, 2) mm and
+    ``angles`` (n, 2) deg, element ``i`` of ``alpha_len``, ``seg_start``, ``seg_end`` ((n,)
+    mm; a scalar stands for the same value for every robot)."""
+    return beta_segment(base_xy[i, 0], base_xy[i, 1], angles[i, 0], angles[i, 1],
+                        _per_robot(alpha_len, i), _per_robot(seg_start, i), _per_robot(seg_end, i))
 
 
 @njit(cache=True)
-def pair_distances(base_xy, angles, pairs, l_alpha, seg_start, seg_end):
+def pair_distances(base_xy, angles, pairs, alpha_len, seg_start, seg_end):
     """Segment distance of each robot pair, mm.
 
     Parameters
@@ -144,8 +162,9 @@ def pair_distances(base_xy, angles, pairs, l_alpha, seg_start, seg_end):
     base_xy : (n, 2) float64, mm
     angles : (n, 2) float64, (alpha, beta) deg
     pairs : (p, 2) int64, robot indices
-    l_alpha, seg_start : float, mm
-    seg_end : (n,) float64, mm (per robot, since it may depend on the buffer)
+    alpha_len, seg_start, seg_end : (n,) float64, mm
+        Each robot's alpha arm length and beta collision segment (start, end along its
+        beta arm); a scalar stands for the same value for every robot.
 
     Returns
     -------
@@ -153,22 +172,44 @@ def pair_distances(base_xy, angles, pairs, l_alpha, seg_start, seg_end):
     """
     out = np.empty(pairs.shape[0])
     for k in range(pairs.shape[0]):
-        a0x, a0y, a1x, a1y = _robot_segment(base_xy, angles, pairs[k, 0], l_alpha, seg_start, seg_end)
-        b0x, b0y, b1x, b1y = _robot_segment(base_xy, angles, pairs[k, 1], l_alpha, seg_start, seg_end)
+        a0x, a0y, a1x, a1y = _robot_segment(base_xy, angles, pairs[k, 0], alpha_len, seg_start,
+                                            seg_end)
+        b0x, b0y, b1x, b1y = _robot_segment(base_xy, angles, pairs[k, 1], alpha_len, seg_start,
+                                            seg_end)
         out[k] = segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y)
     return out
 
 
 @njit(cache=True)
-def fiducial_distances(base_xy, angles, robot_fid, fid_xy, l_alpha, seg_start, seg_end):
-    """Distance from each (robot, fiducial) pair's beta segment to the fiducial centre, mm.
+def fiducial_distances(base_xy, angles, robot_fid, fid_xy, alpha_len, seg_start, seg_end,
+                       fid_end_xy=None):
+    """Distance from each (robot, obstacle) pair's beta segment to the obstacle, mm.
 
-    robot_fid : (p, 2) int64 of (robot index, fiducial index). Returns (p,) float64.
+    Parameters
+    ----------
+    base_xy, angles, alpha_len, seg_start, seg_end : as :func:`pair_distances`
+    robot_fid : (p, 2) int64 of (robot index, obstacle index)
+    fid_xy : (m, 2) float64, mm: obstacle centres (a fiducial) or first ends (a segment)
+    fid_end_xy : (m, 2) float64, mm, optional
+        Second end of each obstacle segment (== ``fid_xy`` for a point obstacle); None:
+        every obstacle is the point ``fid_xy``.
+
+    Returns
+    -------
+    (p,) float64
     """
     out = np.empty(robot_fid.shape[0])
     for k in range(robot_fid.shape[0]):
         f = robot_fid[k, 1]
-        a0x, a0y, a1x, a1y = _robot_segment(base_xy, angles, robot_fid[k, 0], l_alpha, seg_start,
-                                            seg_end)
-        out[k] = point_segment_distance(fid_xy[f, 0], fid_xy[f, 1], a0x, a0y, a1x, a1y)
+        a0x, a0y, a1x, a1y = _robot_segment(base_xy, angles, robot_fid[k, 0], alpha_len,
+                                            seg_start, seg_end)
+        fx = fid_xy[f, 0]
+        fy = fid_xy[f, 1]
+        if fid_end_xy is None:
+            out[k] = point_segment_distance(fx, fy, a0x, a0y, a1x, a1y)
+        elif fid_end_xy[f, 0] == fx and fid_end_xy[f, 1] == fy:
+            out[k] = point_segment_distance(fx, fy, a0x, a0y, a1x, a1y)
+        else:
+            out[k] = segment_distance(a0x, a0y, a1x, a1y, fx, fy, fid_end_xy[f, 0],
+                                      fid_end_xy[f, 1])
     return out

@@ -1,8 +1,10 @@
 """Independent dense 2D collision check of a :class:`rfp_twin.models.trajectory.Trajectory`.
 
-Checks every robot-robot and robot-fiducial pair that can touch against the capsule
-model of Sayres et al. 2021 (Eq. 3), with a bound between samples so that no collision,
-however brief, can slip through (mm, deg, s at the public boundary).
+Checks every robot-robot and robot-obstacle (fiducial, guide-camera edge) pair that can
+touch against the capsule model of Sayres et al. 2021 (Eq. 3), each robot with its own
+alpha arm, segment and buffer from the layout's columns, with a bound between samples
+so that no collision, however brief, can slip through (mm, deg, s at the public
+boundary).
 
 Modules
 -------
@@ -15,8 +17,8 @@ kernel
 check
     :func:`check_trajectory`: candidate pairs (k-d tree), kernel inputs, the report.
 
-Independence: this package imports ``models`` (robot, layout, errors, the trajectory
-data type) and :mod:`rfp_twin.validation.numerics` (its own segment distance), never
+Independence: this package imports ``models`` (robot, layout and its columns, errors,
+the trajectory data type) and :mod:`rfp_twin.validation.numerics` (its own segment distance), never
 ``planners`` nor the planner's distance code :mod:`rfp_twin.models.geometry2d`.
 """
 from rfp_twin.validation.checker2d.check import check_trajectory

@@ -1,19 +1,25 @@
 """The 2D check of a whole trajectory: :func:`check_trajectory` (mm, deg, s).
 
-The collision model is the capsule model of Sayres et al. 2021 (Eq. 3). Robot ``i``
-with base ``b_i``, alpha ``a`` and beta ``b`` (degrees) has its beta collision body on
-the segment
+The collision model is the capsule model of Sayres et al. 2021 (Eq. 3) with each
+robot's own geometry. Robot ``i`` with base ``b_i``, alpha ``a`` and beta ``b``
+(degrees) has its beta collision body on the segment
 
-    P_i(r, t) = b_i + l_alpha (cos a, sin a) + r (cos(a + b), sin(a + b)),
-    r in [segment_start_mm, spec.segment_end(buffer)]
+    P_i(r, t) = b_i + l_i (cos a, sin a) + r (cos(a + b), sin(a + b)),   r in [s0_i, s1_i]
 
-Robots ``i, j`` collide when the segment distance ``D_ij(t) <= buffer_i + buffer_j``.
-A fiducial is a disk of radius ``spec.fiducial_buffer_mm``; robot ``i`` collides with
-it when the point-segment distance ``<= buffer_i + fiducial_buffer_mm``. Only pairs
-whose bases are within ``2 (l_alpha + r_max + buffer)`` (robot pairs) or
-``l_alpha + r_max + buffer + fiducial_buffer`` (robot-fiducial) can touch,
-``r_max = max(segment_start, segment_end)``; the candidate pairs are found here with
-a k-d tree, not with the planner's neighbour lists.
+with its alpha arm length ``l_i``, segment ``[s0_i, s1_i]`` and buffer ``buffer_i``
+from the layout's per-robot columns
+(:func:`rfp_twin.models.layout.columns.robot_collision_arrays`: the spec's values at
+``buffer_mm`` where blank; ``buffer_i = buffer_mm + buffer_add_mm``). Robots ``i, j``
+collide when the segment distance ``D_ij(t) <= buffer_i + buffer_j``. An obstacle
+``f`` (a non-robot row of the layout: a fiducial is a point, a ``gfa`` row with
+``x2_mm, y2_mm`` a segment; :func:`rfp_twin.models.layout.columns.obstacle_arrays`) is
+thickened by its own ``obstacle_buffer_mm`` (default ``spec.fiducial_buffer_mm``);
+robot ``i`` collides with it when the distance of its segment to the obstacle's is
+``<= buffer_i + obstacle_buffer_f``. Only pairs whose bases are within ``reach_i +
+reach_j`` (robot pairs, ``reach_i = l_i + r_max,i + buffer_i``, ``r_max,i = max(|s0_i|,
+|s1_i|)``) or whose base is within ``reach_i + obstacle_buffer_f`` of the obstacle can
+touch; the candidate pairs are found here (k-d tree, or all robot-obstacle distances
+when obstacles differ), not with the planner's neighbour lists.
 
 The checked span is ``[T0, T1]``, ``T0 = min(0, first breakpoint)``, ``T1`` the last
 breakpoint (:func:`rfp_twin.validation.numerics.time_span`). Robots of the layout that the
@@ -28,13 +34,14 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from rfp_twin.models.layout import Layout
+from rfp_twin.models.layout.columns import obstacle_arrays
 from rfp_twin.models.robot import RobotSpec
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.validation.checker2d.kernel import check_pairs
 from rfp_twin.validation.checker2d.report import CheckReport, Collision
-from rfp_twin.validation.checker2d.speeds import arm_geometry, checked_buffer, robot_speeds
+from rfp_twin.validation.checker2d.speeds import checked_buffer, robot_arms, robot_speeds
 from rfp_twin.validation.numerics import (REACH_TOL_MM, axis_csr, checked_float, pairs_within,
-                                 robot_bases, time_span)
+                                 robot_bases, segment_distance_np, time_span)
 
 
 def _fiducials_within(robot_xy: np.ndarray, fid_xy: np.ndarray, reach: float) -> np.ndarray:
@@ -44,6 +51,31 @@ def _fiducials_within(robot_xy: np.ndarray, fid_xy: np.ndarray, reach: float) ->
     lists = cKDTree(fid_xy).query_ball_point(robot_xy, r=reach + REACH_TOL_MM)
     rows = [(i, k) for i, ks in enumerate(lists) for k in sorted(ks)]
     return np.array(rows, dtype=np.int64).reshape(-1, 2)
+
+
+def _robot_pairs(base: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """Robot index pairs ``(i < j)`` whose bases (n, 2) are at most ``reach_i + reach_j``
+    (+ tolerance) apart, (p, 2) int64, sorted; ``reach`` (n,) mm."""
+    top = float(reach.max()) if len(reach) else 0.0
+    pairs = pairs_within(base, 2.0 * top)
+    if len(pairs) and np.any(reach != top):
+        d = np.hypot(*(base[pairs[:, 0]] - base[pairs[:, 1]]).T)
+        pairs = pairs[d <= reach[pairs[:, 0]] + reach[pairs[:, 1]] + REACH_TOL_MM]
+    return pairs
+
+
+def _obstacle_pairs(base: np.ndarray, reach: np.ndarray, a: np.ndarray, b: np.ndarray,
+                    obuf: np.ndarray) -> np.ndarray:
+    """(robot index, obstacle index) pairs, (q, 2) int64 sorted, whose base (n, 2) is at
+    most ``reach_i + obuf_f`` (+ tolerance) from the obstacle segment ``a_f``-``b_f``
+    ((m, 2) mm; a point when ``a_f == b_f``); ``reach`` (n,), ``obuf`` (m,) mm."""
+    if len(base) == 0 or len(a) == 0:
+        return np.empty((0, 2), dtype=np.int64)
+    if np.all(a == b) and np.all(reach == reach[0]) and np.all(obuf == obuf[0]):
+        return _fiducials_within(base, a, float(reach[0]) + float(obuf[0]))
+    d = segment_distance_np(base[:, None], base[:, None], a[None], b[None])       # (n, m)
+    near = d <= reach[:, None] + obuf[None, :] + REACH_TOL_MM
+    return np.argwhere(near).astype(np.int64).reshape(-1, 2)
 
 
 def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_mm: float, *,
@@ -57,11 +89,15 @@ def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_m
         Robots are matched to the layout by id.
     spec : RobotSpec
         Arm geometry (``alpha_length_mm``, ``segment_start_mm``, ``segment_end``,
-        ``fiducial_buffer_mm``).
+        ``fiducial_buffer_mm``) of every robot and obstacle the layout does not
+        override.
     layout : Layout
-        Robot bases and fiducials. Layout robots absent from ``traj`` are not checked.
+        Robot bases and obstacles, and the optional per-robot / per-obstacle columns
+        (:mod:`rfp_twin.models.layout.columns`). Layout robots absent from ``traj`` are
+        not checked.
     buffer_mm : float
-        Collision buffer of every robot, mm (threshold ``2 buffer`` for robot pairs).
+        Collision buffer of every robot, mm (plus its ``buffer_add_mm``; threshold
+        ``buffer_i + buffer_j`` for robot pairs).
     resolution_s : float
         Shortest interval the bisection splits; an interval this short that the bound
         cannot clear is reported as a (conservative) collision. Also the precision of
@@ -84,6 +120,9 @@ def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_m
     SpecError
         ``buffer_mm``, ``resolution_s``, ``distance_tol_mm`` or ``distance_rel_tol``
         out of range.
+    LayoutError
+        A per-robot / per-obstacle column out of range, or a robot buffer outside
+        ``(0, pitch / 2)``.
     """
     clock = time.perf_counter()
     buffer_mm = checked_buffer(buffer_mm)
@@ -95,16 +134,15 @@ def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_m
                         "check_trajectory", strict=False, allow_bool=True)
 
     ids, base = robot_bases(traj, layout)
-    la, s0, s1, rmax = arm_geometry(spec, buffer_mm)
-    fbuf = float(spec.fiducial_buffer_mm)
+    la, s0, s1, rmax, buf = robot_arms(spec, layout, ids, buffer_mm)
+    fid_xy, fid_end, obuf = obstacle_arrays(spec, layout)
+    fid_ids = np.asarray(layout.fiducial_ids, dtype=np.int64)
     n = len(ids)
 
-    rpairs = pairs_within(base, 2.0 * (la + rmax + buffer_mm))
-    fpairs = _fiducials_within(base, np.asarray(layout.fiducial_xy, dtype=np.float64),
-                               la + rmax + buffer_mm + fbuf)
+    reach = la + rmax + buf
+    rpairs = _robot_pairs(base, reach)
+    fpairs = _obstacle_pairs(base, reach, fid_xy, fid_end, obuf)
     n_r, n_f = len(rpairs), len(fpairs)
-    fid_xy = np.asarray(layout.fiducial_xy, dtype=np.float64)
-    fid_ids = np.asarray(layout.fiducial_ids, dtype=np.int64)
 
     t_lo, t_hi = time_span(traj)
 
@@ -117,11 +155,12 @@ def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_m
         vglob, vmean = robot_speeds(la, rmax, (pa, ta, ra), (pb, tb, rb), t_hi - t_lo)
         pi = np.concatenate([rpairs[:, 0], fpairs[:, 0]]).astype(np.int64)
         pj = np.concatenate([rpairs[:, 1], np.full(n_f, -1, dtype=np.int64)]).astype(np.int64)
-        pfx = np.concatenate([np.zeros(n_r), fid_xy[fpairs[:, 1], 0] if n_f else np.empty(0)])
-        pfy = np.concatenate([np.zeros(n_r), fid_xy[fpairs[:, 1], 1] if n_f else np.empty(0)])
-        thr = np.concatenate([np.full(n_r, 2.0 * buffer_mm), np.full(n_f, buffer_mm + fbuf)])
+        ends = [np.concatenate([np.zeros(n_r), xy[fpairs[:, 1], k]])
+                for xy in (fid_xy, fid_end) for k in (0, 1)]
+        thr = np.concatenate([buf[rpairs[:, 0]] + buf[rpairs[:, 1]],
+                              buf[fpairs[:, 0]] + obuf[fpairs[:, 1]]])
         pmin, _, n_samples, coll = check_pairs(
-            pi, pj, pfx, pfy, thr,
+            pi, pj, *ends, thr,
             np.ascontiguousarray(base[:, 0]), np.ascontiguousarray(base[:, 1]),
             la, s0, s1, rmax, pa, ta, aa, ra, pb, tb, ab, rb, vglob, vmean,
             t_lo, t_hi, 2.0 * buffer_mm, res, tol, rel)

@@ -1,9 +1,12 @@
 """The dense 2D check of every candidate pair: one numba kernel, :func:`check_pairs`.
 
-Inputs are plain arrays: per pair ``(i, j)`` robot indices (``j = -1`` for a fiducial
-at ``(fx, fy)``, mm) and its threshold (mm); the bases (mm); the trajectory as per-axis
-CSR arrays (:func:`rfp_twin.validation.numerics.axis_csr`, angles rad, |slope| rad/s); per robot
-the largest and the mean point speed of its collision segment (mm/s,
+Inputs are plain arrays: per pair ``(i, j)`` robot indices (``j = -1`` for an obstacle,
+the segment ``(fx, fy)``-``(ex, ey)``, mm, a point when both ends are equal) and its
+threshold (mm); the bases (mm); per robot its own alpha arm length, beta collision
+segment start / end and ``r_max`` ((n,) mm,
+:func:`rfp_twin.validation.checker2d.speeds.robot_arms`); the trajectory as per-axis
+CSR arrays (:func:`rfp_twin.validation.numerics.axis_csr`, angles rad, |slope| rad/s);
+per robot the largest and the mean point speed of its collision segment (mm/s,
 :mod:`rfp_twin.validation.checker2d.speeds`). Times in s.
 
 *Interval bound.* ``D`` (the segment distance of a pair) is Lipschitz with ``L = V_i +
@@ -71,21 +74,23 @@ MAX_COARSE = 10_000_000
 
 @njit(cache=True)
 def _local_speed(i, t0, t1, la, rmax, pa, ta, ra, pb, tb, rb):
-    """Bound on the point speed (mm/s) of robot ``i``'s collision segment on (t0, t1)."""
+    """Bound on the point speed (mm/s) of robot ``i``'s collision segment on (t0, t1);
+    ``la``, ``rmax``: (n,) mm, each robot's alpha arm length and ``r_max``."""
     A = max_rate(pa, ta, ra, i, t0, t1)
     B = max_rate(pb, tb, rb, i, t0, t1)
-    return la * A + rmax * (A + B)
+    return la[i] * A + rmax[i] * (A + B)
 
 
 @njit(cache=True)
-def _pair_distance(i, j, fx, fy, t, bx, by, la, s0, s1, pa, ta, aa, pb, tb, ab):
-    """Segment distance of robot ``i`` to robot ``j`` (or to point (fx, fy) if j < 0)."""
+def _pair_distance(i, j, fx, fy, ex, ey, t, bx, by, la, s0, s1, pa, ta, aa, pb, tb, ab):
+    """Segment distance of robot ``i`` to robot ``j`` (or, if j < 0, to the obstacle
+    segment (fx, fy)-(ex, ey)) at time ``t``, mm; ``la``, ``s0``, ``s1``: (n,) per robot."""
     p0x, p0y, p1x, p1y = beta_segment(bx[i], by[i], interp_angle(pa, ta, aa, i, t),
-                                      interp_angle(pb, tb, ab, i, t), la, s0, s1)
+                                      interp_angle(pb, tb, ab, i, t), la[i], s0[i], s1[i])
     if j < 0:
-        return segment_distance(p0x, p0y, p1x, p1y, fx, fy, fx, fy)
+        return segment_distance(p0x, p0y, p1x, p1y, fx, fy, ex, ey)
     q0x, q0y, q1x, q1y = beta_segment(bx[j], by[j], interp_angle(pa, ta, aa, j, t),
-                                      interp_angle(pb, tb, ab, j, t), la, s0, s1)
+                                      interp_angle(pb, tb, ab, j, t), la[j], s0[j], s1[j])
     return segment_distance(p0x, p0y, p1x, p1y, q0x, q0y, q1x, q1y)
 
 
@@ -143,10 +148,13 @@ def _flush(coll, nc, run, p):
 
 
 @njit(cache=True)
-def check_pairs(pi, pj, pfx, pfy, thr, bx, by, la, s0, s1, rmax,
+def check_pairs(pi, pj, pfx, pfy, pex, pey, thr, bx, by, la, s0, s1, rmax,
                 pa, ta, aa, ra, pb, tb, ab, rb, vglob, vmean,
                 t_lo, t_hi, slack, resolution, tol, rel_tol):
     """Dense check of every pair. Returns (pair_min, pair_tmin, n_samples, coll (k, 6)).
+
+    ``pfx, pfy, pex, pey`` (pairs,): the obstacle segment of a pair with ``pj < 0``, mm;
+    ``la, s0, s1, rmax`` (n,): each robot's arm, mm (see the module docstring).
 
     ``coll`` rows: pair index, t_start, t_end, t_min, d_min, conservative (0/1).
     """
@@ -164,13 +172,16 @@ def check_pairs(pi, pj, pfx, pfy, thr, bx, by, la, s0, s1, rmax,
         j = pj[p]
         fx = pfx[p]
         fy = pfy[p]
+        ex = pex[p]
+        ey = pey[p]
         th = thr[p]
         lg = vglob[i] + (vglob[j] if j >= 0 else 0.0)
         lm = vmean[i] + (vmean[j] if j >= 0 else 0.0)
         run[0] = 0.0
         n_int = n_intervals(span, lm, slack, resolution)
         if n_int == 0:
-            d = _pair_distance(i, j, fx, fy, t_lo, bx, by, la, s0, s1, pa, ta, aa, pb, tb, ab)
+            d = _pair_distance(i, j, fx, fy, ex, ey, t_lo, bx, by, la, s0, s1, pa, ta, aa, pb, tb,
+                               ab)
             n_samples += 1
             pmin[p] = d
             ptmin[p] = t_lo
@@ -185,7 +196,7 @@ def check_pairs(pi, pj, pfx, pfy, thr, bx, by, la, s0, s1, rmax,
         for k in range(n_int + 1):
             t = t_lo + span * (k / n_int) if k < n_int else t_hi
             tc[k] = t
-            d = _pair_distance(i, j, fx, fy, t, bx, by, la, s0, s1, pa, ta, aa, pb, tb, ab)
+            d = _pair_distance(i, j, fx, fy, ex, ey, t, bx, by, la, s0, s1, pa, ta, aa, pb, tb, ab)
             dc[k] = d
             if d < best:
                 best = d
@@ -230,7 +241,7 @@ def check_pairs(pi, pj, pfx, pfy, thr, bx, by, la, s0, s1, rmax,
                             split = True
                 if split and top + 2 <= STACK:
                     m = a + 0.5 * h
-                    dm = _pair_distance(i, j, fx, fy, m, bx, by, la, s0, s1,
+                    dm = _pair_distance(i, j, fx, fy, ex, ey, m, bx, by, la, s0, s1,
                                         pa, ta, aa, pb, tb, ab)
                     n_samples += 1
                     if dm < best:

@@ -26,11 +26,12 @@ class Collision(PlainRecord):
     Attributes
     ----------
     kind : str
-        ``"robot"`` (robot-robot) or ``"fiducial"`` (robot-fiducial).
+        ``"robot"`` (robot-robot) or ``"fiducial"`` (robot-obstacle: any non-robot row
+        of the layout, a fiducial or a guide-camera edge).
     robot_a : int
         Robot id.
     other : int
-        The other robot's id, or the fiducial id.
+        The other robot's id, or the obstacle's (fiducial's) id.
     t_start, t_end : float
         First and last colliding sample of the interval, s (for a conservative
         interval: its ends).
@@ -40,7 +41,8 @@ class Collision(PlainRecord):
         Smallest centre-line (segment) distance found in the interval, mm; for a
         conservative interval the lower bound ``max(lb, 0)``.
     threshold_mm : float
-        ``buffer_i + buffer_j`` (or ``buffer_i + fiducial_buffer_mm``), mm.
+        ``buffer_i + buffer_j`` (or ``buffer_i +`` the obstacle's buffer), mm: each
+        robot's own buffer (``buffer_mm`` plus its ``buffer_add_mm``).
     conservative : bool
         True when no sample collided but the bound could not clear an interval of
         length ``<= resolution_s`` (a grazing contact reported to be safe).
@@ -67,7 +69,7 @@ class CheckReport:
     n_robots : int
         Robots in the trajectory.
     n_pairs, n_fiducial_pairs : int
-        Candidate robot-robot and robot-fiducial pairs checked.
+        Candidate robot-robot and robot-obstacle pairs checked.
     duration_s : float
         Length of the checked time span ``[T0, T1]``, s.
     n_samples : int
@@ -77,7 +79,7 @@ class CheckReport:
     pair_min_distance_mm : (p,) float64
         Smallest sampled segment distance per robot pair, mm.
     fiducial_pair_ids : (q, 2) int64
-        ``(robot id, fiducial id)``.
+        ``(robot id, obstacle id)``.
     fiducial_min_distance_mm : (q,) float64
     min_clearance_mm : float
         Smallest ``distance - threshold`` over all pairs (and conservative collision
