@@ -7,6 +7,9 @@ also serves :func:`rfp_twin.planners.resolve_search.trim.trim_tails`.
 
 Units: angles in deg, lengths in mm; a segment is (x0, y0, x1, y1), the beta arm from
 ``s0`` to ``s1`` mm along it; shapes in each docstring (T = steps of a time table).
+``l_alpha``, ``s0``, ``s1`` are scalars of the one robot concerned (its own alpha length
+and collision segment, ``geom.alpha_len[i]`` etc.); the other robots enter as segment
+tables built with their own values, the thresholds carry each pair's buffers.
 """
 from __future__ import annotations
 
@@ -79,9 +82,10 @@ def reach_of(seg, bx, by):
 
 @njit(cache=True)
 def static_collisions(q, bx, by, l_alpha, s0, s1, limits, st_seg, st_th, pt_xy, pt_th, out):
-    """Static test of one robot: joint limits, static segments (offline robots), points
-    (fiducials). q (m, 2) deg; limits (4,) deg; st_seg (a, 4) mm, st_th (a,) mm;
-    pt_xy (b, 2) mm, pt_th (b,) mm; out (m,) bool."""
+    """Static test of one robot: joint limits, static segments (offline robots' beta
+    segments, segment obstacles such as guide-camera edges), points (fiducials).
+    q (m, 2) deg; limits (4,) deg; st_seg (a, 4) mm, st_th (a,) mm (each segment's own
+    threshold); pt_xy (b, 2) mm, pt_th (b,) mm; out (m,) bool."""
     for r in range(q.shape[0]):
         a = q[r, 0]
         b = q[r, 1]

@@ -35,12 +35,11 @@ def trim_tails(geom: ArrayGeometry, paths: PathSet, dest: np.ndarray, skip: np.n
 
     Parameters
     ----------
-    geom : ArrayGeometry; paths : PathSet (planning frame, step clock)
+    geom : ArrayGeometry (each robot's own ``alpha_len``, ``seg_start``, ``seg_end``,
+        ``buffer``, (n,) mm); paths : PathSet (planning frame, step clock)
     dest : (n, 2) deg, destinations; skip : (n,) bool, robots left alone (stuck, offline)
     md : float, step-rule margin MD, mm
     """
-    l_alpha = float(geom.spec.alpha_length_mm)
-    s0 = float(geom.spec.segment_start_mm)
     n = geom.n_robots
     end = max((paths.motion_end(i) for i in range(n)), default=0.0)
     trimmed = []
@@ -55,13 +54,15 @@ def trim_tails(geom: ArrayGeometry, paths: PathSet, dest: np.ndarray, skip: np.n
         ks = np.arange(math.floor(first), math.ceil(end) + 1, dtype=np.float64)
         bj = geom.base_xy[j]
         held = segments_at(float(bj[0]), float(bj[1]), np.ascontiguousarray(
-            np.repeat(dest[j][None, :], ks.size, axis=0)), l_alpha, s0, float(geom.seg_end[j]))
+            np.repeat(dest[j][None, :], ks.size, axis=0)), float(geom.alpha_len[j]),
+            float(geom.seg_start[j]), float(geom.seg_end[j]))
         ok = True
         for k in geom.nbr_idx[geom.nbr_ptr[j]:geom.nbr_ptr[j + 1]]:
             k = int(k)
             bk = geom.base_xy[k]
             seg_k = segments_at(float(bk[0]), float(bk[1]), np.ascontiguousarray(paths.sample(k, ks)),
-                                 l_alpha, s0, float(geom.seg_end[k]))
+                                 float(geom.alpha_len[k]), float(geom.seg_start[k]),
+                                 float(geom.seg_end[k]))
             if pair_conflict(held, seg_k, float(geom.buffer[j] + geom.buffer[k]) + md):
                 ok = False
                 break

@@ -9,12 +9,17 @@ Time grid: one action lasts ``K`` planner steps (``K = round(action_deg / step_d
 and a robot moves at most ``step_deg`` per axis per step (the stepwise planner's speed,
 or slower on the shorter axis). Collisions are checked at every step (``dt_col`` = 1
 step) with the stepwise planner's step rule (Sayres 2021 Eqs. 6-7): the beta capsules
-must be farther apart than ``buffer_i + buffer_j + MD`` (fiducials ``buffer_i +
-fiducial_buffer + MD``), ``MD = max_displacement(...)``. Since both robots of a pair
+must be farther apart than ``buffer_i + buffer_j + MD`` (obstacles ``buffer_i +
+fid_buffer_f + MD``), ``MD = max_displacement(...)``. Since both robots of a pair
 move at most one step per axis between two checks, that margin keeps the pair apart at
 the collision buffer in continuous time, exactly as it does for the stepwise planner
 (see :mod:`rfp_twin.planners.stepwise.kernel`), so the merged plan passes
 :func:`rfp_twin.validation.checker2d.check_trajectory` at the planning buffer.
+
+Per-robot geometry: each robot's beta segment uses its own alpha length, segment start
+and end and buffer (``geom.alpha_len``, ``geom.seg_start``, ``geom.seg_end``,
+``geom.buffer``, (n,) mm); an obstacle (fiducial: a point, guide-camera edge: a segment
+``geom.fid_xy``-``geom.fid_end_xy``) has its own keep-out radius ``geom.fid_buffer``.
 
 Units: mm and degrees; time unit = one planner step (``step_s`` seconds).
 """
@@ -39,7 +44,8 @@ class AlphaBetaWorld:
 
     Parameters
     ----------
-    geom : ArrayGeometry (layout, spec, buffers, Eq. 4 neighbours, fiducials)
+    geom : ArrayGeometry (layout, spec, per-robot geometry and buffers, Eq. 4
+        neighbours, obstacles)
     paths : PathSet, every robot's current path in the planning frame (step clock)
     movable : (n,) bool; False = offline robot (a static obstacle at its path's start)
     md : float, step-rule margin MD, mm (:func:`rfp_twin.planners.stepwise.max_displacement`)
@@ -54,8 +60,6 @@ class AlphaBetaWorld:
         self.md = float(md)
         self.step_deg = float(step_deg)
         spec = geom.spec
-        self.l_alpha = float(spec.alpha_length_mm)
-        self.s0 = float(spec.segment_start_mm)
         self.limits = np.array([*spec.alpha_limits_deg, *spec.beta_limits_deg], dtype=np.float64)
         #: robot index -> (obstacle robot indices, collisions met) of its latest arm
         self.hits: dict[int, tuple[np.ndarray, np.ndarray]] = {}
@@ -72,11 +76,35 @@ class AlphaBetaWorld:
             return False
         t_last = int(math.ceil(max(tri.t_end, trj.t_end)))
         ks = np.arange(t_last + 1, dtype=np.float64)
-        sa = segments_at(float(g.base_xy[i, 0]), float(g.base_xy[i, 1]),
-                          np.ascontiguousarray(tri.at(ks)), self.l_alpha, self.s0, float(g.seg_end[i]))
-        sb = segments_at(float(g.base_xy[j, 0]), float(g.base_xy[j, 1]),
-                          np.ascontiguousarray(trj.at(ks)), self.l_alpha, self.s0, float(g.seg_end[j]))
+        sa = self.segments(i, tri.at(ks))
+        sb = self.segments(j, trj.at(ks))
         return bool(pair_conflict(sa, sb, float(g.buffer[i] + g.buffer[j]) + self.md))
+
+    def segments(self, i: int, ang: np.ndarray) -> np.ndarray:
+        """Robot index i's beta segments (T, 4) mm at angles ``ang`` (T, 2) deg, with its
+        own alpha length and segment (``geom.alpha_len[i]``, ``seg_start[i]``, ``seg_end[i]``)."""
+        g = self.geom
+        return segments_at(float(g.base_xy[i, 0]), float(g.base_xy[i, 1]),
+                           np.ascontiguousarray(ang, dtype=np.float64), float(g.alpha_len[i]),
+                           float(g.seg_start[i]), float(g.seg_end[i]))
+
+    def obstacles(self, i: int, th: float):
+        """The obstacles near robot index i, split for :func:`.kernels.static_collisions`.
+
+        Returns ``(seg (a, 4), seg_th (a,), pt (b, 2), pt_th (b,))`` mm: segment obstacles
+        (guide-camera edges, ``fid_xy``-``fid_end_xy``) and point obstacles (fiducials),
+        each with threshold ``th + fid_buffer[f]`` (``th``: robot i's buffer, mm; the
+        caller adds MD afterwards, which keeps the nominal sum ``(b_i + b_f) + MD``).
+        """
+        g = self.geom
+        fids = g.fid_idx[g.fid_ptr[i]:g.fid_ptr[i + 1]]
+        a = np.asarray(g.fid_xy, dtype=np.float64).reshape(-1, 2)[fids]
+        b = np.asarray(g.fid_end_xy, dtype=np.float64).reshape(-1, 2)[fids]
+        fb = np.asarray(g.fid_buffer, dtype=np.float64).reshape(-1)[fids]
+        point = np.all(a == b, axis=1)
+        seg = np.ascontiguousarray(np.hstack([a[~point], b[~point]])).reshape(-1, 4)
+        return (seg, th + fb[~point], np.ascontiguousarray(a[point]).reshape(-1, 2),
+                th + fb[point])
 
     def blockers(self, i: int, exclude=()) -> list[int]:
         """Moving obstacles robot i met most in its latest search, most first."""
@@ -137,9 +165,7 @@ class AlphaBetaWorld:
                 ang = np.column_stack([np.interp(ks, st, an[:, 0]), np.interp(ks, st, an[:, 1])])
             else:
                 ang = self.paths.sample(j, ks)
-            obs_seg[:, o, :] = segments_at(float(g.base_xy[j, 0]), float(g.base_xy[j, 1]),
-                                            np.ascontiguousarray(ang), self.l_alpha, self.s0,
-                                            float(g.seg_end[j]))
+            obs_seg[:, o, :] = self.segments(j, ang)
             bjx, bjy = float(g.base_xy[j, 0]), float(g.base_xy[j, 1])
             obs_rho[:, o] = reach_of(obs_seg[:, o, :], bjx, bjy)
             obs_d[o] = math.hypot(bjx - bx, bjy - by)
@@ -152,14 +178,14 @@ class AlphaBetaWorld:
         st_th = np.empty(len(statics))
         for o, j in enumerate(statics):
             a = self.paths.angles[j][0]
-            st_seg[o] = segments_at(float(g.base_xy[j, 0]), float(g.base_xy[j, 1]),
-                                     np.ascontiguousarray(a[None, :]), self.l_alpha, self.s0,
-                                     float(g.seg_end[j]))[0]
+            st_seg[o] = self.segments(j, a[None, :])[0]
             st_th[o] = bi + float(g.buffer[j]) + self.md
-        fids = g.fid_idx[g.fid_ptr[i]:g.fid_ptr[i + 1]]
-        pt_xy = np.ascontiguousarray(g.fid_xy[fids], dtype=np.float64).reshape(-1, 2)
-        pt_th = np.full(len(fids), bi + g.fiducial_buffer + self.md)
-        l_alpha, s0, limits = self.l_alpha, self.s0, self.limits
+        # obstacles: segments join the static robots' table, points keep their own test
+        ob_seg, ob_th, pt_xy, pt_th = self.obstacles(i, bi)
+        pt_th = pt_th + self.md
+        st_seg = np.ascontiguousarray(np.vstack([st_seg, ob_seg]))
+        st_th = np.concatenate([st_th, ob_th + self.md])
+        l_alpha, s0, limits = float(g.alpha_len[i]), float(g.seg_start[i]), self.limits
         hits = np.zeros(len(movers), dtype=np.int64)
         self.hits[i] = (np.array(movers, dtype=np.int64), hits)
 

@@ -16,6 +16,10 @@ different ``s`` at the same instant, which the plan never checked. The post-proc
 pipeline therefore re-verifies the result and merges the groups of any pair that comes
 too close (:mod:`rfp_twin.planners.postprocess`).
 
+Each robot has its own collision body: alpha length ``geom.alpha_len``, beta segment
+``geom.seg_start``-``geom.seg_end`` and buffer ``geom.buffer`` ((n,) mm each); the
+clearance of a pair is ``D_ij - (buffer_i + buffer_j)``.
+
 Units: mm, degrees, plan steps. Pairs are (p, 2) robot indices in layout order.
 """
 from __future__ import annotations
@@ -52,24 +56,28 @@ def _plan_angles(ptr, steps, angles, i, s, out, col):
 
 
 @njit(cache=True, inline="always")
-def _clearance_at(ptr, steps, angles, base_xy, i, j, s, l_alpha, seg_start, seg_end, thr, q):
-    """Segment distance of robots i, j in the plan at step s, minus ``thr`` (mm); q (4,) scratch."""
+def _clearance_at(ptr, steps, angles, base_xy, i, j, s, alpha_len, seg_start, seg_end, thr, q):
+    """Segment distance of robots i, j in the plan at step s, minus ``thr`` (mm); q (4,)
+    scratch. alpha_len, seg_start, seg_end : (n,) mm, each robot's own."""
     _plan_angles(ptr, steps, angles, i, s, q, 0)
     _plan_angles(ptr, steps, angles, j, s, q, 2)
     a0x, a0y, a1x, a1y = beta_segment(base_xy[i, 0], base_xy[i, 1], q[0], q[1],
-                                      l_alpha, seg_start, seg_end[i])
+                                      alpha_len[i], seg_start[i], seg_end[i])
     b0x, b0y, b1x, b1y = beta_segment(base_xy[j, 0], base_xy[j, 1], q[2], q[3],
-                                      l_alpha, seg_start, seg_end[j])
+                                      alpha_len[j], seg_start[j], seg_end[j])
     return segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - thr
 
 
 @njit(cache=True)
-def _pair_clearance_below(ptr, steps, angles, n_steps, base_xy, pairs, l_alpha, seg_start,
+def _pair_clearance_below(ptr, steps, angles, n_steps, base_xy, pairs, alpha_len, seg_start,
                           seg_end, buffer, mu, margin):
     """Per pair: the smallest clearance found before it drops below ``margin`` (mm).
 
+    alpha_len, seg_start, seg_end, buffer : (n,) mm per robot; mu : (n,) mm per step, the
+    fastest a point of each robot's capsule moves.
+
     Walks the plan's steps with adaptive strides: at clearance ``c`` the pair cannot get
-    below ``margin`` within ``(c - margin) / (2 mu)`` steps, so those are skipped. The
+    below ``margin`` within ``(c - margin) / (mu_i + mu_j)`` steps, so those are skipped. The
     walk stops at the first sample below ``margin`` (its value is returned). A value
     ``>= margin`` is the smallest sample (an upper bound of the minimum) and proves the
     whole plan stays ``>= margin``; a value ``< margin`` only says "below".
@@ -81,16 +89,17 @@ def _pair_clearance_below(ptr, steps, angles, n_steps, base_xy, pairs, l_alpha, 
         i = pairs[k, 0]
         j = pairs[k, 1]
         thr = buffer[i] + buffer[j]
+        closing = mu[i] + mu[j]
         best = np.inf
         s = 0.0
         while True:
-            c = _clearance_at(ptr, steps, angles, base_xy, i, j, s, l_alpha, seg_start,
+            c = _clearance_at(ptr, steps, angles, base_xy, i, j, s, alpha_len, seg_start,
                               seg_end, thr, q)
             if c < best:
                 best = c
             if c < margin or s >= n_steps:
                 break
-            skip = math.floor((c - margin) / (2.0 * mu))
+            skip = math.floor((c - margin) / closing)
             if skip < 1.0:
                 skip = 1.0
             s = min(s + skip, float(n_steps))
@@ -104,7 +113,8 @@ def interaction_pairs(plan, geom, margin_mm: float) -> tuple[np.ndarray, np.ndar
     Parameters
     ----------
     plan : Plan (executed direction), robots in ``geom`` order
-    geom : ArrayGeometry (its Eq. 4 neighbour pairs, buffer and segment)
+    geom : ArrayGeometry (its Eq. 4 neighbour pairs; each robot's alpha length, segment
+        and buffer)
     margin_mm : the interaction distance
 
     Returns
@@ -112,48 +122,55 @@ def interaction_pairs(plan, geom, margin_mm: float) -> tuple[np.ndarray, np.ndar
     pairs : (p, 2) int64 robot indices (``geom.pairs``)
     clearance : (p,) float64, mm. A pair below ``margin_mm`` at some step has a value
         below ``margin_mm`` (the first such sample). Any other pair has a value
-        ``>= margin_mm`` (its smallest sample) and its clearance ``D_ij(s) - 2 sigma``
-        is ``>= margin_mm`` over the whole plan, continuous in ``s``: every point of a
-        capsule moves at most ``mu = (l_alpha + 2 r) * step`` per step (``r`` the
-        segment end), so a pair closes at most ``2 mu`` per step, and the walk only
-        skips steps that cannot close the gap to ``margin_mm``.
+        ``>= margin_mm`` (its smallest sample) and its clearance ``D_ij(s) - buffer_i -
+        buffer_j`` is ``>= margin_mm`` over the whole plan, continuous in ``s``: every
+        point of robot i's capsule moves at most ``mu_i = (alpha_len_i + 2 r_i) * step``
+        per step (``r_i`` its segment's far end), so a pair closes at most ``mu_i +
+        mu_j`` per step, and the walk only skips steps that cannot close the gap to
+        ``margin_mm``.
     """
-    spec = geom.spec
     pairs = np.ascontiguousarray(geom.pairs, dtype=np.int64)
     if pairs.shape[0] == 0:
         return pairs.reshape(0, 2), np.zeros(0)
-    r = float(max(np.max(geom.seg_end), spec.segment_start_mm))
-    mu = (spec.alpha_length_mm + 2.0 * r) * plan.step_deg * DEG
+    alpha_len, seg_start, seg_end = _robot_arrays(geom)
+    r = np.maximum(seg_end, seg_start)
+    mu = (alpha_len + 2.0 * r) * plan.step_deg * DEG
     cl = _pair_clearance_below(np.ascontiguousarray(plan.path_ptr, dtype=np.int64),
                                np.ascontiguousarray(plan.path_step, dtype=np.float64),
                                np.ascontiguousarray(plan.path_angles, dtype=np.float64),
-                               float(plan.n_steps), geom.base_xy, pairs, spec.alpha_length_mm,
-                               spec.segment_start_mm, np.ascontiguousarray(geom.seg_end),
-                               np.ascontiguousarray(geom.buffer), float(mu), float(margin_mm))
+                               float(plan.n_steps), geom.base_xy, pairs, alpha_len, seg_start,
+                               seg_end, np.ascontiguousarray(geom.buffer, dtype=np.float64),
+                               np.ascontiguousarray(mu), float(margin_mm))
     return pairs, cl
 
 
+def _robot_arrays(geom) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(alpha_len, seg_start, seg_end)`` of ``geom``, (n,) contiguous float64 mm."""
+    return tuple(np.ascontiguousarray(a, dtype=np.float64)
+                 for a in (geom.alpha_len, geom.seg_start, geom.seg_end))
+
+
 @njit(cache=True)
-def _pair_clearance_at(ptr, steps, angles, base_xy, i, j, at, l_alpha, seg_start, seg_end,
+def _pair_clearance_at(ptr, steps, angles, base_xy, i, j, at, alpha_len, seg_start, seg_end,
                        buffer, out):
+    """out[k] = clearance of robots i, j at step at[k], mm; per-robot arrays (n,) mm."""
     q = np.empty(4)
     thr = buffer[i] + buffer[j]
     for k in range(at.size):
-        out[k] = _clearance_at(ptr, steps, angles, base_xy, i, j, at[k], l_alpha, seg_start,
+        out[k] = _clearance_at(ptr, steps, angles, base_xy, i, j, at[k], alpha_len, seg_start,
                                seg_end, thr, q)
 
 
 def pair_clearance(plan, geom, i: int, j: int, at) -> np.ndarray:
-    """Clearance ``D_ij - 2 sigma`` of robots ``i``, ``j`` (indices) in the plan at steps
-    ``at`` (k,): (k,) mm."""
+    """Clearance ``D_ij - buffer_i - buffer_j`` of robots ``i``, ``j`` (indices) in the plan
+    at steps ``at`` (k,): (k,) mm, each robot with its own alpha length and segment."""
     at = np.ascontiguousarray(np.atleast_1d(np.asarray(at, dtype=np.float64)))
     out = np.empty(at.size)
     _pair_clearance_at(np.ascontiguousarray(plan.path_ptr, dtype=np.int64),
                        np.ascontiguousarray(plan.path_step, dtype=np.float64),
                        np.ascontiguousarray(plan.path_angles, dtype=np.float64),
-                       geom.base_xy, int(i), int(j), at, geom.spec.alpha_length_mm,
-                       geom.spec.segment_start_mm, np.ascontiguousarray(geom.seg_end),
-                       np.ascontiguousarray(geom.buffer), out)
+                       geom.base_xy, int(i), int(j), at, *_robot_arrays(geom),
+                       np.ascontiguousarray(geom.buffer, dtype=np.float64), out)
     return out
 
 
