@@ -10,8 +10,9 @@ import numpy as np
 from numba import njit
 
 from rfp_twin.models.errors import TargetError
-from rfp_twin.models.geometry2d import beta_segment, point_segment_distance, segment_distance
-from rfp_twin.models.kinematics import sample_patrol_zone
+from rfp_twin.models.geometry2d import beta_segment, segment_distance
+from rfp_twin.models.kinematics import fiber_polar, inverse, sample_patrol_zone
+from rfp_twin.models.layout.columns import FIBER_COLUMNS, robot_fibers
 
 #: Draws per robot before random assignment gives up.
 POOL_SIZE = 256
@@ -19,12 +20,14 @@ POOL_SIZE = 256
 
 @njit(cache=True)
 def _assign_from_pool(base_xy, pool, fixed, order, nbr_ptr, nbr_idx, fid_ptr, fid_idx, fid_xy,
-                      fid_buffer, l_alpha, seg_start, seg_end, buffer, margin, out):
+                      fid_end_xy, fid_buffer, l_alpha, seg_start, seg_end, buffer, margin, out):
     """Pick for each robot (in ``order``) the first pool entry clear of assigned robots.
 
     pool : (n, k, 2) candidate configurations; fixed : (n,) bool, robots whose ``out``
-    row is already set (offline robots, kept targets). Returns the index of the first
-    robot for which no candidate fits, or -1.
+    row is already set (offline robots, kept targets). ``l_alpha, seg_start, seg_end,
+    buffer`` (n,) mm per robot; obstacles are segments ``fid_xy``-``fid_end_xy`` (m, 2) mm
+    with keep-out ``fid_buffer`` (m,) mm. Returns the index of the first robot for which
+    no candidate fits, or -1.
     """
     n = base_xy.shape[0]
     assigned = fixed.copy()
@@ -36,23 +39,24 @@ def _assign_from_pool(base_xy, pool, fixed, order, nbr_ptr, nbr_idx, fid_ptr, fi
         for c in range(pool.shape[1]):
             a = pool[i, c, 0]
             b = pool[i, c, 1]
-            x0, y0, x1, y1 = beta_segment(base_xy[i, 0], base_xy[i, 1], a, b, l_alpha, seg_start,
-                                          seg_end[i])
+            x0, y0, x1, y1 = beta_segment(base_xy[i, 0], base_xy[i, 1], a, b, l_alpha[i],
+                                          seg_start[i], seg_end[i])
             ok = True
             for k in range(nbr_ptr[i], nbr_ptr[i + 1]):
                 j = nbr_idx[k]
                 if not assigned[j]:
                     continue
                 u0, v0, u1, v1 = beta_segment(base_xy[j, 0], base_xy[j, 1], out[j, 0], out[j, 1],
-                                              l_alpha, seg_start, seg_end[j])
+                                              l_alpha[j], seg_start[j], seg_end[j])
                 if segment_distance(x0, y0, x1, y1, u0, v0, u1, v1) <= buffer[i] + buffer[j] + margin:
                     ok = False
                     break
             if ok:
                 for k in range(fid_ptr[i], fid_ptr[i + 1]):
                     f = fid_idx[k]
-                    if point_segment_distance(fid_xy[f, 0], fid_xy[f, 1], x0, y0, x1, y1) <= \
-                            buffer[i] + fid_buffer + margin:
+                    if segment_distance(x0, y0, x1, y1, fid_xy[f, 0], fid_xy[f, 1],
+                                        fid_end_xy[f, 0], fid_end_xy[f, 1]) <= \
+                            buffer[i] + fid_buffer[f] + margin:
                         ok = False
                         break
             if ok:
@@ -108,16 +112,15 @@ def _draw_targets(geom, rng, fixed, initial, margin_mm, robots) -> np.ndarray:
     else:
         order = np.asarray(robots, dtype=np.int64)
         fixed_mask[order] = False
-    spec = geom.spec
     args = (geom.nbr_ptr, geom.nbr_idx, geom.fid_ptr, geom.fid_idx, geom.fid_xy,
-            geom.fiducial_buffer, spec.alpha_length_mm, spec.segment_start_mm, geom.seg_end,
+            geom.fid_end_xy, geom.fid_buffer, geom.alpha_len, geom.seg_start, geom.seg_end,
             geom.buffer, margin_mm, out)
+    sample = _patrol_sampler(geom)
     pos = 0
     while pos < order.size:
         rest = order[pos:]
         pool = np.zeros((n, POOL_SIZE, 2))
-        draws = sample_patrol_zone(rng, rest.size * POOL_SIZE, spec.alpha_length_mm, spec.beta_length_mm)
-        pool[rest] = draws.reshape(rest.size, POOL_SIZE, 2)
+        pool[rest] = sample(rng, rest, POOL_SIZE)
         bad = _assign_from_pool(geom.base_xy, pool, fixed_mask, rest, *args)
         if bad < 0:
             break
@@ -126,7 +129,7 @@ def _draw_targets(geom, rng, fixed, initial, margin_mm, robots) -> np.ndarray:
         fixed_mask[order[:pos]] = True
         for size in (4096,):
             big = np.zeros((n, size, 2))
-            big[bad] = sample_patrol_zone(rng, size, spec.alpha_length_mm, spec.beta_length_mm)
+            big[bad] = sample(rng, np.array([bad]), size)[0]
             if _assign_from_pool(geom.base_xy, big, fixed_mask, np.array([bad]), *args) < 0:
                 break
         else:
@@ -136,6 +139,42 @@ def _draw_targets(geom, rng, fixed, initial, margin_mm, robots) -> np.ndarray:
         fixed_mask[bad] = True
         pos += 1
     return out
+
+
+def _patrol_sampler(geom):
+    """``sample(rng, robots (r,), k) -> (r, k, 2)`` deg: right-armed configurations with the
+    fiber uniform (by area) in each robot's patrol annulus.
+
+    Nominal layouts draw with the spec's arms (Sayres 2021 Sect. 4.1, the paper's fiber at
+    ``beta_length_mm``); a layout that carries fibers (a calibrated instrument) draws each
+    robot's metrology fiber in its own annulus (its alpha arm, its fiber), as SDSS-V does.
+    """
+    spec = geom.spec
+    if not any(c in geom.layout.extra for c in FIBER_COLUMNS["metrology"]) and geom.uniform:
+        def nominal(rng, robots, k):
+            draws = sample_patrol_zone(rng, robots.size * k, spec.alpha_length_mm,
+                                       spec.beta_length_mm)
+            return draws.reshape(robots.size, k, 2)
+        return nominal
+    length, phi = fiber_polar(robot_fibers(geom.layout, {"metrology": (spec.beta_length_mm, 0.0)})[:, 0])
+    la = geom.alpha_len
+
+    def own(rng, robots, k):
+        la_r = np.repeat(la[robots], k)
+        lb_r = np.repeat(length[robots], k)
+        r_in, r_out = np.abs(la_r - lb_r), la_r + lb_r
+        r = np.sqrt(rng.uniform(r_in * r_in, r_out * r_out))
+        r = np.clip(r, r_in + 1e-9, r_out - 1e-9)
+        ang = rng.uniform(0.0, 2.0 * np.pi, size=r.size)
+        xy = np.column_stack([r * np.cos(ang), r * np.sin(ang)])
+        out = np.empty_like(xy)
+        for lv in np.unique(la_r):                 # inverse() takes one arm pair at a time
+            for lf in np.unique(lb_r[la_r == lv]):
+                sel = (la_r == lv) & (lb_r == lf)
+                out[sel] = inverse(np.zeros((int(sel.sum()), 2)), xy[sel], float(lv), float(lf))
+        out[:, 1] = (out[:, 1] - np.repeat(phi[robots], k)) % 360.0
+        return out.reshape(robots.size, k, 2)
+    return own
 
 
 def check_angles(geom, angles, what: str | None = None) -> np.ndarray:

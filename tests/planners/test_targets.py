@@ -76,3 +76,30 @@ def test_angle_checks_name_the_array_when_asked():
         check_angles(geom, bad)
     with pytest.raises(TargetError, match=r"^start: shape \(2, 2\)"):
         check_angles(geom, good[:2], "start")
+
+
+def test_random_targets_on_a_calibrated_instrument_use_each_robots_own_reach():
+    from rfp_twin.models.kinematics import forward_fiber
+    from rfp_twin.models.layout import layout_by_name
+    from rfp_twin.models.layout.columns import robot_fibers
+
+    lay = layout_by_name("sdss-v-apo", 22.4)
+    geom = ArrayGeometry(load_spec("sdss-v-production"), lay, 2.0)
+    t = random_targets(geom, np.random.default_rng(3))
+    # clear of each other and of fiducials and guide cameras, with per-robot bodies
+    assert geom.pair_clearance(t).min() > 0.0 and geom.fiducial_clearance(t).min() > 0.0
+    # the metrology fiber lands in each robot's own annulus, filling it to its own rim
+    met = robot_fibers(lay, {})[:, 0]
+    r = np.hypot(*(forward_fiber(geom.base_xy, t, geom.alpha_len, met) - geom.base_xy).T)
+    outer = geom.alpha_len + met[:, 0]
+    assert np.all(r <= outer + 1e-9) and np.all(r >= met[:, 0] - geom.alpha_len - 1e-9)
+    # the draws fill each robot's own annulus: the longest arm reaches past the nominal rim,
+    # the shortest never gets there
+    from rfp_twin.planners.targets import _patrol_sampler
+    ends = np.array([np.argmax(outer), np.argmin(outer)])
+    draws = _patrol_sampler(geom)(np.random.default_rng(0), ends, 20000)
+    for k, d in zip(ends, draws):
+        rr = np.hypot(*(forward_fiber(np.zeros((len(d), 2)), d, np.full(len(d), geom.alpha_len[k]),
+                                      np.broadcast_to(met[k], (len(d), 2)))).T)
+        assert outer[k] - 0.02 < rr.max() <= outer[k] + 1e-9
+    assert outer.max() - 0.02 > 7.4 + 14.314 > outer.min()
