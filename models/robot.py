@@ -70,6 +70,9 @@ class RobotSpec:
         End of that segment; the string selects :func:`sdss_production_segment_end`.
     fiducial_buffer_mm : float
         Radius of the keep-out disk around each fiducial.
+    path_delay_s : float
+        Time between the command and the start of the motion in the firmware, s (SDSS-V
+        production: 1 s); part of a fold's real duration.
     source : str
         Where the spec came from (file path or preset name), for messages.
     """
@@ -89,6 +92,7 @@ class RobotSpec:
     segment_end_mm: float | str
     fiducial_buffer_mm: float
     description: str = ""
+    path_delay_s: float = 0.0
     source: str = field(default="<memory>", compare=False)
 
     def __post_init__(self) -> None:
@@ -173,6 +177,7 @@ def _validate(s: RobotSpec) -> None:
                             f"({axis}_limits_deg)")
     _check_range(s, "buffer_mm", s.buffer_mm, 0.0, 100.0, lo_open=True)
     _check_range(s, "fiducial_buffer_mm", s.fiducial_buffer_mm, 0.0, 100.0)
+    _check_range(s, "path_delay_s", s.path_delay_s, 0.0, 60.0)
     _check_range(s, "segment_start_mm", s.segment_start_mm, 0.0, 1000.0)
     if isinstance(s.segment_end_mm, str):
         if s.segment_end_mm != SDSS_PRODUCTION_SEGMENT:
@@ -192,13 +197,13 @@ _ROBOT_FIELDS = {
     "pitch_mm": "pitch_mm", "alpha_limits_deg": "alpha_limits_deg",
     "beta_limits_deg": "beta_limits_deg", "max_speed_deg_s": "max_speed_deg_s",
     "max_accel_deg_s2": "max_accel_deg_s2", "fold_deg": "fold_deg",
-    "angular_error_deg": "angular_error_deg",
+    "angular_error_deg": "angular_error_deg", "path_delay_s": "path_delay_s",
 }
 _COLLISION_FIELDS = {
     "buffer_mm": "buffer_mm", "segment_start_mm": "segment_start_mm",
     "segment_end_mm": "segment_end_mm", "fiducial_buffer_mm": "fiducial_buffer_mm",
 }
-_OPTIONAL = {"description"}
+_OPTIONAL = {"description", "path_delay_s"}
 #: Tables a preset may hold that other parts of rfp-twin read (e.g. 3D geometry).
 _OTHER_TABLES = {"geometry", "actuators", "extends"}
 

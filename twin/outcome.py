@@ -83,6 +83,7 @@ class Outcome:
             "offline": sorted(rc.offline),
             "fold_deg": list(spec.fold_deg), "speed_deg_s": list(spec.max_speed_deg_s),
             "metrics": dict(self.plan.metrics), "duration_s": traj.duration,
+            "path_delay_s": spec.path_delay_s, "fold_s": spec.path_delay_s + traj.duration,
             "stepwise_fold_s": self.plan.n_steps * self.plan.step_s if o.stepwise else None,
             "duration_ratio": post.duration_ratio if post is not None else None,
             "slowest_groups": post.slowest_groups if post is not None else None,

@@ -117,7 +117,7 @@ def test_production_segment_end_formula(cb):
 def test_production_extends_sdss_v():
     base, prod = load_spec("sdss-v"), load_spec("sdss-v-production")
     for f in ("alpha_length_mm", "beta_length_mm", "pitch_mm", "alpha_limits_deg",
-              "beta_limits_deg", "max_speed_deg_s", "fold_deg", "angular_error_deg"):
+              "beta_limits_deg", "fold_deg", "angular_error_deg"):
         assert getattr(prod, f) == getattr(base, f), f
     # production keeps fiducials 3 mm away (kaiju's fiducial buffer), the paper preset 1.5
     assert (prod.fiducial_buffer_mm, base.fiducial_buffer_mm) == (3.0, 1.5)
@@ -385,3 +385,16 @@ def test_spec_origin_names_the_preset_or_file(tmp_path):
     assert spec_origin(spec.with_overrides(source="<memory>")) is None
     path.unlink()
     assert spec_origin(spec) is None                                # the file is gone
+
+
+def test_production_speed_and_path_delay_are_the_instruments():
+    paper, prod, cold = (load_spec(n) for n in ("sdss-v", "sdss-v-production",
+                                                 "sdss-v-production-cold"))
+    rpm = lambda deg_s: deg_s * 60.0 / 360.0
+    # motor 2000 RPM (cold 1000 RPM) through the 1024:1 gearbox, both axes
+    assert [rpm(v) for v in prod.max_speed_deg_s] == pytest.approx([2000 / 1024] * 2)
+    assert [rpm(v) for v in cold.max_speed_deg_s] == pytest.approx([1000 / 1024] * 2)
+    assert (prod.path_delay_s, cold.path_delay_s, paper.path_delay_s) == (1.0, 1.0, 0.0)
+    assert paper.max_speed_deg_s == (30.0, 30.0)           # Sayres 2021 Sect. 4.1
+    with pytest.raises(SpecError, match="path_delay_s"):
+        prod.with_overrides(path_delay_s=-1.0)

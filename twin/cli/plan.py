@@ -164,6 +164,9 @@ def print_summary(summary: dict, out: Path) -> None:
                                  f"{summary['duration_ratio']:.3f} x stepwise (firmware-ready)"
                                  if summary.get("duration_ratio")
                                  else f"{summary['duration_s']:.2f} s ({summary['trajectories']})")),
+        *([("fold time on the instrument", f"{summary['fold_s']:.2f} s (path delay "
+                                             f"{summary['path_delay_s']:.1f} s + trajectory)")]
+          if summary.get("path_delay_s") else []),
         *([("robots that set the end", _group_row(summary["slowest_groups"][0]))]
           if summary.get("slowest_groups") else []),
         ("tau_pg / tau_sr / planning", f"{m['tau_pg_s']:.3f} s / {m['tau_sr_s']:.3f} s / "
