@@ -14,6 +14,11 @@ spec's limits instead (robots may then stall against a stop). Beta is always cla
 the spec's beta limits. The descent may end on either arm branch (the "faster
 configuration" of Makarem 2014 Sect. 4): the goal is the tip position.
 
+Per-robot geometry: the kernel gets each robot's alpha length, beta segment and buffer
+excess and each obstacle's segment and keep-out excess from the ArrayGeometry (targets'
+tips too: :func:`tip_positions`); on a nominal layout every value equals the spec's and
+the run is the same as with scalars.
+
 Cost: O(N k) per step (k neighbours from the layout's CSR), so a run is linear in N.
 """
 from __future__ import annotations
@@ -29,33 +34,57 @@ from rfp_twin.models.kinematics import forward
 from rfp_twin.planners.apf.field import _start_violation
 from rfp_twin.planners.apf.kernel import run_apf
 from rfp_twin.planners.apf.result import STOP_REASONS, ApfResult, _trajectory, apf_plan
-from rfp_twin.planners.apf.settings import DEG, ApfSettings
+from rfp_twin.planners.apf.settings import DEG, ApfSettings, buffer_excess, obstacle_csr
 from rfp_twin.planners.offline import apply_offline
 from rfp_twin.planners.targets import check_angles
 from rfp_twin.planners.plan import Plan
 
 
-def _neighbours(geom: ArrayGeometry, settings: ApfSettings, D: float, D_f: float):
-    """CSR of pairs that can come within D (and fiducials within D_f), coop mask."""
+def _neighbours(geom: ArrayGeometry, settings: ApfSettings, D: float, D_f: float,
+                ex: np.ndarray):
+    """CSR of pairs that can come within D (and obstacles within D_f), coop mask.
+
+    ``ex`` (n,) mm: each robot's threshold excess (:func:`buffer_excess`); reaches use
+    the largest alpha length, segment end and excess over the robots.
+    """
     spec = geom.spec
     lay = geom.layout
+    n = geom.n_robots
+    la = float(geom.alpha_len.max()) if n else spec.alpha_length_mm
     if settings.model == "tip":
-        r_arm = spec.alpha_length_mm + spec.beta_length_mm
+        r_arm = la + spec.beta_length_mm
     else:
-        r_arm = spec.alpha_length_mm + max(spec.segment_start_mm,
-                                           float(geom.seg_end.max()) if geom.n_robots else 0.0)
+        r_arm = la + max(float(geom.seg_start.max()) if n else spec.segment_start_mm,
+                         float(geom.seg_end.max()) if n else 0.0)
+    ex_max = float(ex.max()) if n else 0.0
     coop_r = settings.coop_radius_mm
     if coop_r is None:
         coop_r = 1.2 * nearest_spacing_mm(geom)
-    ptr, idx = lay.neighbour_csr(max(2.0 * r_arm + D, float(coop_r)))
+    ptr, idx = lay.neighbour_csr(max(2.0 * r_arm + D + 2.0 * ex_max, float(coop_r)))
     ptr = np.asarray(ptr, dtype=np.int64)
     idx = np.asarray(idx, dtype=np.int64)
     owner = np.repeat(np.arange(geom.n_robots), np.diff(ptr))
     dist = np.hypot(*(geom.base_xy[owner] - geom.base_xy[idx]).T) if idx.size else np.empty(0)
     coop = np.asarray(dist <= float(coop_r), dtype=np.bool_)
-    fptr, fidx = lay.robot_fiducial_csr(r_arm + D_f)
-    return (ptr, idx, coop, np.asarray(fptr, dtype=np.int64), np.asarray(fidx, dtype=np.int64),
-            float(coop_r))
+    fptr, fidx = obstacle_csr(geom, r_arm + D_f + ex_max)
+    return ptr, idx, coop, fptr, fidx, float(coop_r)
+
+
+def tip_positions(geom: ArrayGeometry, angles_deg: np.ndarray) -> np.ndarray:
+    """(n, 2) fiber tips, mm, at each robot's own alpha length plus the beta length.
+
+    angles_deg : (n, 2) (alpha, beta) deg. Robots sharing an alpha length go through one
+    :func:`rfp_twin.models.kinematics.forward` call (a nominal layout: one call).
+    """
+    la = geom.alpha_len
+    lb = geom.spec.beta_length_mm
+    angles = np.ascontiguousarray(angles_deg, dtype=np.float64)
+    out = np.empty((geom.n_robots, 2))
+    for value in np.unique(la):
+        rows = np.flatnonzero(la == value)
+        out[rows] = forward(np.ascontiguousarray(geom.base_xy[rows]),
+                            np.ascontiguousarray(angles[rows]), float(value), lb)[0]
+    return out
 
 
 def nearest_spacing_mm(geom: ArrayGeometry) -> float:
@@ -114,23 +143,29 @@ def plan_apf(geom: ArrayGeometry, start, targets, settings: ApfSettings | None =
     targets[~mov] = start[~mov]
     d, D, d_f, D_f, margin = settings.distances(geom)
     wa_deg, wb_deg = settings.speeds_deg_s(geom)
-    ptr, idx, coop, fptr, fidx, _ = _neighbours(geom, settings, D, D_f)
-    la, lb = spec.alpha_length_mm, spec.beta_length_mm
-    s0 = spec.segment_start_mm
-    s1 = float(geom.seg_end[0]) if n else spec.segment_end()
     segment = settings.model == "segment"
-    fid_xy = np.ascontiguousarray(geom.fid_xy, dtype=np.float64).reshape(-1, 2)
+    ex, fex = buffer_excess(geom, settings.model)
+    ptr, idx, coop, fptr, fidx, _ = _neighbours(geom, settings, D, D_f, ex)
+    la = np.ascontiguousarray(geom.alpha_len, dtype=np.float64)
+    lb = spec.beta_length_mm
+    s0 = np.ascontiguousarray(geom.seg_start, dtype=np.float64)
+    s1 = np.ascontiguousarray(geom.seg_end, dtype=np.float64)
+    fid_a = np.ascontiguousarray(geom.fid_xy, dtype=np.float64).reshape(-1, 2)
+    fid_b = np.ascontiguousarray(geom.fid_end_xy, dtype=np.float64).reshape(-1, 2)
     th0 = np.ascontiguousarray(start * DEG)
     i, j, s = _start_violation(geom.base_xy, th0, la, lb, s0, s1, segment, ptr, idx, fptr, fidx,
-                               fid_xy, d, d_f, mov)
+                               fid_a, fid_b, ex, fex, d, d_f, mov)
     if i >= 0:
         what = "tips" if not segment else "beta segments"
         if j >= 0:
+            lim = d + (ex[i] + ex[j])
             raise TargetError(f"start: robots {int(geom.robot_ids[i])} and {int(geom.robot_ids[j])}: "
-                              f"{what} {s:.4f} mm apart; allowed: > d = {d:.4f} mm")
-        raise TargetError(f"start: robot {int(geom.robot_ids[i])}: {s:.4f} mm from fiducial "
-                          f"{int(geom.fiducial_ids[-1 - j])}; allowed: > {d_f:.4f} mm")
-    target_xy, _ = forward(geom.base_xy, np.ascontiguousarray(targets), la, lb)
+                              f"{what} {s:.4f} mm apart; allowed: > d = {lim:.4f} mm")
+        f = -1 - j
+        kind = str(np.asarray(geom.layout.kinds)[~np.asarray(geom.layout.robot_mask)][f])
+        raise TargetError(f"start: robot {int(geom.robot_ids[i])}: {s:.4f} mm from {kind} "
+                          f"{int(geom.fiducial_ids[f])}; allowed: > {d_f + (ex[i] + fex[f]):.4f} mm")
+    target_xy = tip_positions(geom, targets)
     dt = settings.dt_s
     max_steps = int(math.ceil(settings.max_time_s / dt - 1e-9))
     stall_steps = max(1, int(round(settings.stall_window_s / dt)))
@@ -139,7 +174,8 @@ def plan_apf(geom: ArrayGeometry, start, targets, settings: ApfSettings | None =
     t0 = time.perf_counter()
     (k, stop, th, ev_r, ev_a, ev_s, ev_v, n_ev, stats, settle, err, th_min, th_max) = run_apf(
         geom.base_xy, th0, np.ascontiguousarray(targets * DEG), np.ascontiguousarray(target_xy),
-        mov, ptr, idx, coop, fptr, fidx, fid_xy, la, lb, s0, s1, segment, d, D, d_f, D_f,
+        mov, ptr, idx, coop, fptr, fidx, fid_a, fid_b, la, lb, s0, s1, ex, fex, segment,
+        d, D, d_f, D_f,
         settings.lambda1, settings.lambda2, settings.lambda3, settings.gain, wa_deg * DEG, wb_deg * DEG,
         blo * DEG, bhi * DEG, alo * DEG, ahi * DEG, settings.enforce_alpha_limits, dt,
         settings.tol_mm, max_steps, stall_steps, settings.stall_deg * DEG,

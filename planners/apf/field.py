@@ -17,6 +17,12 @@ collision segments (segment model, Sayres et al. 2021 Eq. 3); in segment mode th
 acts at the closest point ``p`` of the segment, whose Jacobian is the tip's with
 ``l_beta`` replaced by its distance ``r`` along the arm (:func:`_jt`). Segment distances
 come from :mod:`rfp_twin.models.geometry2d`. Lengths in mm, angles in radians.
+
+Geometry is per robot (:class:`rfp_twin.models.array.ArrayGeometry`): robot i's elbow
+is ``alpha_len[i]`` from its base, its beta segment runs from ``seg_start[i]`` to
+``seg_end[i]``; obstacles are segments ``fid_xy[f]``-``fid_end_xy[f]`` (a point where
+both ends are equal: the point formulas are then used unchanged). Per-body buffers
+enter the thresholds (``d + ex_i + ex_j``), not the distances.
 """
 from __future__ import annotations
 
@@ -31,7 +37,11 @@ from rfp_twin.models.geometry2d import _project_sq, _segments_cross, segment_clo
 
 @njit(cache=True)
 def _pose(base, th, la, out):
-    """out[i] = (cos a, sin a, cos(a+b), sin(a+b), elbow x, elbow y) for every robot."""
+    """out[i] = (cos a, sin a, cos(a+b), sin(a+b), elbow x, elbow y) for every robot.
+
+    base : (n, 2) mm; th : (n, 2) rad; la : (n,) each robot's alpha arm length, mm;
+    out : (n, 6) filled in place.
+    """
     for i in range(base.shape[0]):
         a = th[i, 0]
         ab = th[i, 0] + th[i, 1]
@@ -41,8 +51,8 @@ def _pose(base, th, la, out):
         out[i, 1] = sa
         out[i, 2] = math.cos(ab)
         out[i, 3] = math.sin(ab)
-        out[i, 4] = base[i, 0] + la * ca
-        out[i, 5] = base[i, 1] + la * sa
+        out[i, 4] = base[i, 0] + la[i] * ca
+        out[i, 5] = base[i, 1] + la[i] * sa
 
 
 @njit(cache=True)
@@ -64,10 +74,11 @@ def _seg_closest(ax, ay, bx, by, cx, cy, dx, dy):
 
 @njit(cache=True)
 def _pair(P, i, j, segment, lb, s0, s1):
-    """Distance of robots i, j and i's closest point: (s, r_i, px, py, qx, qy).
+    """Distance of robots i, j and i's closest point: (s, r_i, px, py, qx, qy), mm.
 
-    Tip mode: the tips (r_i = l_beta). Segment mode: the beta collision segments; r_i is
-    the distance of i's closest point from its beta axis.
+    Tip mode: the tips (r_i = l_beta). Segment mode: the beta collision segments, robot
+    k's from ``s0[k]`` to ``s1[k]`` (both (n,), mm) along its beta arm; r_i is the
+    distance of i's closest point from its beta axis.
     """
     if not segment:
         px = P[i, 4] + lb * P[i, 2]
@@ -75,27 +86,55 @@ def _pair(P, i, j, segment, lb, s0, s1):
         qx = P[j, 4] + lb * P[j, 2]
         qy = P[j, 5] + lb * P[j, 3]
         return math.sqrt((px - qx) ** 2 + (py - qy) ** 2), lb, px, py, qx, qy
+    a0 = s0[i]
+    a1 = s1[i]
+    b0 = s0[j]
+    b1 = s1[j]
     s, t, px, py, qx, qy = _seg_closest(
-        P[i, 4] + s0 * P[i, 2], P[i, 5] + s0 * P[i, 3], P[i, 4] + s1 * P[i, 2], P[i, 5] + s1 * P[i, 3],
-        P[j, 4] + s0 * P[j, 2], P[j, 5] + s0 * P[j, 3], P[j, 4] + s1 * P[j, 2], P[j, 5] + s1 * P[j, 3])
-    return s, s0 + t * (s1 - s0), px, py, qx, qy
+        P[i, 4] + a0 * P[i, 2], P[i, 5] + a0 * P[i, 3], P[i, 4] + a1 * P[i, 2], P[i, 5] + a1 * P[i, 3],
+        P[j, 4] + b0 * P[j, 2], P[j, 5] + b0 * P[j, 3], P[j, 4] + b1 * P[j, 2], P[j, 5] + b1 * P[j, 3])
+    return s, a0 + t * (a1 - a0), px, py, qx, qy
 
 
 @njit(cache=True)
-def _fid(P, i, fx, fy, segment, lb, s0, s1):
-    """Distance of robot i (tip or segment) to point (fx, fy): (s, r_i, px, py)."""
+def _fid(P, i, fa, fb, f, segment, lb, s0, s1):
+    """Distance of robot i (tip or beta segment) to obstacle f: (s, r_i, px, py, qx, qy).
+
+    The obstacle is the segment ``fa[f]``-``fb[f]`` ((m, 2) ends, mm; a point where the
+    ends are equal, e.g. a fiducial). ``p`` is i's closest point (``r_i`` mm along its
+    beta arm; ``l_beta`` in tip mode), ``q`` the obstacle's. s0, s1 : (n,) mm as in
+    :func:`_pair`.
+    """
+    ax = fa[f, 0]
+    ay = fa[f, 1]
+    bx = fb[f, 0]
+    by = fb[f, 1]
+    point = ax == bx and ay == by
     if not segment:
         px = P[i, 4] + lb * P[i, 2]
         py = P[i, 5] + lb * P[i, 3]
-        return math.sqrt((px - fx) ** 2 + (py - fy) ** 2), lb, px, py
-    s2, t, px, py = _project_sq(fx, fy, P[i, 4] + s0 * P[i, 2], P[i, 5] + s0 * P[i, 3],
-                                P[i, 4] + s1 * P[i, 2], P[i, 5] + s1 * P[i, 3])
-    return math.sqrt(s2), s0 + t * (s1 - s0), px, py
+        if point:
+            return math.sqrt((px - ax) ** 2 + (py - ay) ** 2), lb, px, py, ax, ay
+        s2, _, qx, qy = _project_sq(px, py, ax, ay, bx, by)
+        return math.sqrt(s2), lb, px, py, qx, qy
+    r0 = s0[i]
+    r1 = s1[i]
+    if point:
+        s2, t, px, py = _project_sq(ax, ay, P[i, 4] + r0 * P[i, 2], P[i, 5] + r0 * P[i, 3],
+                                    P[i, 4] + r1 * P[i, 2], P[i, 5] + r1 * P[i, 3])
+        return math.sqrt(s2), r0 + t * (r1 - r0), px, py, ax, ay
+    s, t, px, py, qx, qy = _seg_closest(
+        P[i, 4] + r0 * P[i, 2], P[i, 5] + r0 * P[i, 3], P[i, 4] + r1 * P[i, 2], P[i, 5] + r1 * P[i, 3],
+        ax, ay, bx, by)
+    return s, r0 + t * (r1 - r0), px, py, qx, qy
 
 
 @njit(cache=True)
 def _jt(P, i, la, r, fx, fy):
-    """J^T f for the point at r along robot i's beta arm: (f . dp/dalpha, f . dp/dbeta)."""
+    """J^T f for the point at r along robot i's beta arm: (f . dp/dalpha, f . dp/dbeta).
+
+    la : robot i's alpha arm length (scalar), mm; f = (fx, fy) a force in the plane.
+    """
     # dp/dalpha = la perp(e_a) + r perp(e_ab); dp/dbeta = r perp(e_ab); perp(c, s) = (-s, c)
     fb = r * (-fx * P[i, 3] + fy * P[i, 2])
     fa = la * (-fx * P[i, 1] + fy * P[i, 0]) + fb
@@ -117,8 +156,12 @@ def _barrier_weight(s, d, tiny, l2, dD2):
 
 @njit(cache=True)
 def _start_violation(base, th, la, lb, s0, s1, segment, nbr_ptr, nbr_idx, fid_ptr, fid_idx,
-                     fid_xy, d, d_f, movable_only_mask):
-    """First (i, j_or_-1-f, s) with s <= threshold at configuration th, or (-1, 0, inf)."""
+                     fid_a, fid_b, ex, fex, d, d_f, movable_only_mask):
+    """First (i, j_or_-1-f, s) with s <= threshold at configuration th, or (-1, 0, inf).
+
+    Thresholds: ``d + ex[i] + ex[j]`` for a pair, ``d_f + ex[i] + fex[f]`` for an
+    obstacle (ex (n,), fex (m,): each body's buffer beyond the nominal one, mm).
+    """
     n = base.shape[0]
     P = np.empty((n, 6))
     _pose(base, th, la, P)
@@ -128,13 +171,12 @@ def _start_violation(base, th, la, lb, s0, s1, segment, nbr_ptr, nbr_idx, fid_pt
             if j <= i or not (movable_only_mask[i] or movable_only_mask[j]):
                 continue
             s, _, _, _, _, _ = _pair(P, i, j, segment, lb, s0, s1)
-            if s <= d:
+            if s <= d + (ex[i] + ex[j]):
                 return i, j, s
         if movable_only_mask[i]:
             for kk in range(fid_ptr[i], fid_ptr[i + 1]):
                 f = fid_idx[kk]
-                s, _, _, _ = _fid(P, i, fid_xy[f, 0], fid_xy[f, 1], segment, lb, s0, s1)
-                if s <= d_f:
+                s, _, _, _, _, _ = _fid(P, i, fid_a, fid_b, f, segment, lb, s0, s1)
+                if s <= d_f + (ex[i] + fex[f]):
                     return i, -1 - f, s
     return -1, 0, np.inf
-

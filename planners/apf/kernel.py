@@ -52,6 +52,11 @@ no part in the cooperative term. Alpha is continuous unless ``clamp_alpha``; bet
 always clamped to its limits. Each axis's path is recorded online with a swing-door
 filter: kept points are original Euler samples, and linear interpolation between them is
 within ``simp_tol`` of every sample. Cost O(N k) per step (k neighbours in the CSR).
+
+Per-robot geometry: each robot has its own alpha arm length, beta collision segment and
+buffer excess, each obstacle its own shape (a point or a segment) and keep-out excess;
+the thresholds ``d``, ``D`` (and ``d_fid``, ``D_fid``) of a pair grow by the two bodies'
+excesses, so the envelope width ``D - d`` stays the same for every pair.
 """
 from __future__ import annotations
 
@@ -89,7 +94,7 @@ def _emit(ev_r, ev_a, ev_s, ev_v, n_ev, robot, axis, step, value):
 
 @njit(cache=True)
 def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop,
-            fid_ptr, fid_idx, fid_xy, la, lb, s0, s1, segment, d, D, d_f, D_f,
+            fid_ptr, fid_idx, fid_a, fid_b, la, lb, s0, s1, ex, fex, segment, d, D, d_f, D_f,
             l1, l2, l3, gain, w_a, w_b, beta_lo, beta_hi, alpha_lo, alpha_hi, clamp_alpha,
             dt, tol, max_steps, stall_steps, stall_rad, band_sin, axis_r, implicit, guard,
             simp_tol, cap):
@@ -101,10 +106,16 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
     target_xy : (n, 2) target tip positions; movable : (n,) bool
     nbr_ptr, nbr_idx : CSR robot neighbours (pairs that can come within D)
     nbr_coop : (len(nbr_idx),) bool, entry is a cooperative neighbour (CAPF)
-    fid_ptr, fid_idx, fid_xy : CSR robot -> fiducials and fiducial centres
-    la, lb, s0, s1 : alpha / beta arm lengths, beta segment start / end along the arm
+    fid_ptr, fid_idx : CSR robot -> obstacles
+    fid_a, fid_b : (m, 2) obstacle ends (equal for a point obstacle such as a fiducial)
+    la : (n,) each robot's alpha arm length; lb : beta arm length (tip at la[i] + lb)
+    s0, s1 : (n,) each robot's beta collision segment start / end along its arm
+    ex : (n,) each robot's buffer beyond the nominal one (segment model; 0 in tip mode)
+    fex : (m,) each obstacle's keep-out radius beyond the spec's fiducial buffer
     segment : bool, segment model (else tip model)
-    d, D, d_f, D_f : robot and fiducial safety / envelope distances
+    d, D, d_f, D_f : nominal robot and obstacle safety / envelope distances; pair (i, j)
+        uses ``d + ex[i] + ex[j]`` and ``D + ex[i] + ex[j]``, robot i and obstacle f
+        ``d_f + ex[i] + fex[f]`` and ``D_f + ex[i] + fex[f]``
     l1, l2, l3 : field weights; gain : 1/s factor on u; w_a, w_b : saturation speeds (rad/s)
     beta_lo, beta_hi, alpha_lo, alpha_hi : joint limits (rad); clamp_alpha : bool
     dt : Euler step (s); tol : convergence distance; max_steps, stall_steps : ints
@@ -115,7 +126,8 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
     -------
     n_steps, stop (0 converged, 1 stalled, 2 max steps), th (n, 2) final,
     ev_r, ev_a, ev_s, ev_v, n_ev : breakpoints (robot, axis, step, angle rad),
-    stats (4,) = min pair distance, min tip distance, min fiducial distance,
+    stats (4,) = min pair distance less ``ex[i] + ex[j]`` (comparable with d), min tip
+    distance, min obstacle distance less ``ex[i] + fex[f]`` (comparable with d_f),
     guard events; settle (n,) int64 step of last entry into
     tolerance (-1 if not converged); err (n,) final tip errors (mm); th_min, th_max
     (n, 2) angle ranges visited.
@@ -151,10 +163,6 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
     min_tip = np.inf
     min_fid = np.inf
     n_guard = 0
-    dD2 = D * D - d * d
-    dDf2 = D_f * D_f - d_f * d_f
-    tiny = 1e-6 * d * d
-    tiny_f = 1e-6 * d_f * d_f
     k = 0
     stop = 2
     while True:
@@ -175,13 +183,15 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                     min_tip = st
                 if segment:
                     s, _, _, _, _, _ = _pair(P, i, j, segment, lb, s0, s1)
+                    s -= ex[i] + ex[j]
                     if s < min_pair:
                         min_pair = s
                 elif st < min_pair:
                     min_pair = st
             for kk in range(fid_ptr[i], fid_ptr[i + 1]):
                 f = fid_idx[kk]
-                s, _, _, _ = _fid(P, i, fid_xy[f, 0], fid_xy[f, 1], segment, lb, s0, s1)
+                s, _, _, _, _, _ = _fid(P, i, fid_a, fid_b, f, segment, lb, s0, s1)
+                s -= ex[i] + fex[f]
                 if s < min_fid:
                     min_fid = s
             if movable[i]:
@@ -226,7 +236,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                     if nbr_coop[kk] and movable[j]:
                         gx += 2.0 * l3 * (P[j, 4] + lb * P[j, 2] - target_xy[j, 0])
                         gy += 2.0 * l3 * (P[j, 5] + lb * P[j, 3] - target_xy[j, 1])
-            fa, fb = _jt(P, i, la, lb, -gx, -gy)
+            fa, fb = _jt(P, i, la[i], lb, -gx, -gy)
             sb = P[i, 2] * P[i, 1] - P[i, 3] * P[i, 0]     # sin(beta)
             if band_sin > 0.0 and abs(sb) < band_sin:
                 cb = P[i, 2] * P[i, 0] + P[i, 3] * P[i, 1]  # cos(beta)
@@ -250,27 +260,41 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
             for kk in range(nbr_ptr[i], nbr_ptr[i + 1]):
                 j = nbr_idx[kk]
                 s, r, px, py, qx, qy = _pair(P, i, j, segment, lb, s0, s1)
-                if s >= D:
+                e = ex[i] + ex[j]
+                Dij = D + e
+                if s >= Dij:
                     continue
-                w = _barrier_weight(s, d, tiny, l2, dD2)
+                dij = d + e
+                w = _barrier_weight(s, dij, 1e-6 * dij * dij, l2, Dij * Dij - dij * dij)
                 vx = px - qx
                 vy = py - qy
                 if s < 1e-12:
                     vx = base[i, 0] - base[j, 0]
                     vy = base[i, 1] - base[j, 1]
                     nv = math.sqrt(vx * vx + vy * vy)
-                    vx *= d / nv
-                    vy *= d / nv
-                ra, rb = _jt(P, i, la, r, w * vx, w * vy)
+                    vx *= dij / nv
+                    vy *= dij / nv
+                ra, rb = _jt(P, i, la[i], r, w * vx, w * vy)
                 ua += ra
                 ub += rb
             for kk in range(fid_ptr[i], fid_ptr[i + 1]):
                 f = fid_idx[kk]
-                s, r, px, py = _fid(P, i, fid_xy[f, 0], fid_xy[f, 1], segment, lb, s0, s1)
-                if s >= D_f:
+                s, r, px, py, qx, qy = _fid(P, i, fid_a, fid_b, f, segment, lb, s0, s1)
+                e = ex[i] + fex[f]
+                Dif = D_f + e
+                if s >= Dif:
                     continue
-                w = _barrier_weight(s, d_f, tiny_f, l2, dDf2)
-                ra, rb = _jt(P, i, la, r, w * (px - fid_xy[f, 0]), w * (py - fid_xy[f, 1]))
+                dif = d_f + e
+                w = _barrier_weight(s, dif, 1e-6 * dif * dif, l2, Dif * Dif - dif * dif)
+                vx = px - qx
+                vy = py - qy
+                if s < 1e-12:   # on the obstacle: push away from it towards the base
+                    vx = base[i, 0] - qx
+                    vy = base[i, 1] - qy
+                    nv = max(math.sqrt(vx * vx + vy * vy), 1e-12)
+                    vx *= dif / nv
+                    vy *= dif / nv
+                ra, rb = _jt(P, i, la[i], r, w * vx, w * vy)
                 ua += ra
                 ub += rb
             # alpha-axis rule: alpha moves the tip with gain r = |tip - base|; below
@@ -285,8 +309,8 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
             ub *= gain
             if implicit:
                 # linearly implicit Euler in the attractive term: (I + 2 l1 dt J^T J) du = u
-                c1x = -la * P[i, 1] - lb * P[i, 3]
-                c1y = la * P[i, 0] + lb * P[i, 2]
+                c1x = -la[i] * P[i, 1] - lb * P[i, 3]
+                c1y = la[i] * P[i, 0] + lb * P[i, 2]
                 c2x = -lb * P[i, 3]
                 c2y = lb * P[i, 2]
                 h = 2.0 * l1 * dt * gain
@@ -333,7 +357,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                 for kk in range(nbr_ptr[i], nbr_ptr[i + 1]):
                     j = nbr_idx[kk]
                     s, _, _, _, _, _ = _pair(Q, i, j, segment, lb, s0, s1)
-                    if s <= d:
+                    if s <= d + (ex[i] + ex[j]):
                         bad = True
                         if frac[j] > 0.0:
                             frac[j] = frac[j] * 0.5 if frac[j] > 0.5 ** GUARD_HALVINGS else 0.0
@@ -341,8 +365,8 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                 if not bad:
                     for kk in range(fid_ptr[i], fid_ptr[i + 1]):
                         f = fid_idx[kk]
-                        s, _, _, _ = _fid(Q, i, fid_xy[f, 0], fid_xy[f, 1], segment, lb, s0, s1)
-                        if s <= d_f:
+                        s, _, _, _, _, _ = _fid(Q, i, fid_a, fid_b, f, segment, lb, s0, s1)
+                        if s <= d_f + (ex[i] + fex[f]):
                             bad = True
                             break
                 if bad:

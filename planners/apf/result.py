@@ -44,10 +44,14 @@ class ApfResult:
         Time after which the robot stayed within tolerance (NaN if not converged).
     min_distance_mm : float
         Smallest pair distance of the collision model over all steps (tip distance or
-        beta-segment distance), mm (inf without pairs).
+        beta-segment distance), mm (inf without pairs); with per-robot buffers, each
+        pair's distance less its two robots' buffer excess (so it compares with ``d_mm``).
     min_tip_distance_mm, min_fiducial_distance_mm : float
-        Smallest tip-tip and robot(model)-fiducial-centre distance seen, mm.
-    d_mm, D_mm, d_fid_mm, D_fid_mm, margin_mm : float, resolved distances
+        Smallest tip-tip distance, and smallest robot(model)-obstacle distance less the
+        robot's and the obstacle's buffer excess (compares with ``d_fid_mm``), seen, mm.
+        Obstacles are fiducial points or guide-camera edge segments.
+    d_mm, D_mm, d_fid_mm, D_fid_mm, margin_mm : float, resolved nominal distances (run
+        buffer, spec fiducial buffer; see :mod:`rfp_twin.planners.apf.settings`)
     motion_time_s : float
         ``steps x dt`` when converged or stopped at ``max_time_s``; for a stalled run the
         time when the stall window began.

@@ -24,6 +24,15 @@ the margin no longer covers it and the trajectory should be checked, as the CLI 
 does.)
 
 In both models ``D_fid = d_fid + (D - d)``.
+
+Per-robot geometry (:class:`rfp_twin.models.array.ArrayGeometry`: each robot's alpha
+length, beta segment and buffer, each obstacle's shape and keep-out radius): the
+distances above are the nominal ones (run buffer, spec fiducial buffer). A pair uses
+``d + ex_i + ex_j`` (and ``D`` likewise), robot i and obstacle f ``d_fid + ex_i + fex_f``,
+with ``ex = buffer - buffer_mm`` (segment model; 0 in the tip model, whose tips are
+points) and ``fex = fid_buffer - fiducial_buffer_mm`` (:func:`buffer_excess`). Bounds
+that depend on an arm length (the margin's speed, neighbour reach) take the largest over
+the robots.
 """
 from __future__ import annotations
 
@@ -32,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.array import ArrayGeometry, _obstacles_within
 from rfp_twin.models.errors import SpecError, field_error
 
 DEG = math.pi / 180.0
@@ -209,12 +218,46 @@ def default_margin_mm(geom: ArrayGeometry, settings: ApfSettings) -> float:
     of their sampled distances, ``V = l_alpha w_a + r_max (w_a + w_b)``, speeds in
     rad/s) plus the simplification error of two arms, ``2 (l_alpha + r_max) tol``, plus
     ``MARGIN_SAFETY_MM``.
+    With per-robot geometry ``l_alpha`` and ``r_max`` are the largest over the robots.
     """
     spec = geom.spec
     wa, wb = (v * DEG for v in settings.speeds_deg_s(geom))
-    rmax = max(float(geom.seg_end.max()) if geom.n_robots else spec.beta_length_mm,
-               spec.segment_start_mm)
-    v = spec.alpha_length_mm * wa + rmax * (wa + wb)
-    simp = 2.0 * (spec.alpha_length_mm + rmax) * settings.simplify_tol_deg * DEG
+    n = geom.n_robots
+    rmax = max(float(geom.seg_end.max()) if n else spec.beta_length_mm,
+               float(geom.seg_start.max()) if n else spec.segment_start_mm)
+    la = float(geom.alpha_len.max()) if n else spec.alpha_length_mm
+    v = la * wa + rmax * (wa + wb)
+    simp = 2.0 * (la + rmax) * settings.simplify_tol_deg * DEG
     return v * settings.dt_s + simp + MARGIN_SAFETY_MM
 
+
+def buffer_excess(geom: ArrayGeometry, model: str) -> tuple[np.ndarray, np.ndarray]:
+    """Each body's buffer beyond the nominal one that its thresholds add, mm.
+
+    Returns ``(ex, fex)``: (n,) ``geom.buffer - geom.buffer_mm`` in the segment model
+    (zeros in the tip model: tips are points) and (m,) ``geom.fid_buffer -
+    spec.fiducial_buffer_mm``. Both are exactly 0 on a nominal layout.
+    """
+    if model == "segment":
+        ex = np.ascontiguousarray(geom.buffer - float(geom.buffer_mm), dtype=np.float64)
+    else:
+        ex = np.zeros(geom.n_robots)
+    fex = np.ascontiguousarray(geom.fid_buffer - geom.spec.fiducial_buffer_mm, dtype=np.float64)
+    return ex, fex
+
+
+def obstacle_csr(geom: ArrayGeometry, reach_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """Obstacles near each robot base, CSR ``(ptr (n + 1,), idx)`` int64, ascending.
+
+    Obstacle f is listed for robot i when the distance from i's base to the obstacle
+    (its segment ``fid_xy[f]``-``fid_end_xy[f]``, a point for a fiducial) is within
+    ``reach_mm + fid_buffer[f] - spec.fiducial_buffer_mm`` mm. Point obstacles at the
+    spec's buffer use the layout's own query (:meth:`Layout.robot_fiducial_csr`).
+    """
+    a, b = geom.fid_xy, geom.fid_end_xy
+    fex = geom.fid_buffer - geom.spec.fiducial_buffer_mm
+    if np.all(a == b) and np.all(fex == 0.0):
+        ptr, idx = geom.layout.robot_fiducial_csr(float(reach_mm))
+        return np.asarray(ptr, dtype=np.int64), np.asarray(idx, dtype=np.int64)
+    ptr, idx = _obstacles_within(geom.base_xy, a, b, float(reach_mm) + fex)
+    return np.asarray(ptr, dtype=np.int64), np.asarray(idx, dtype=np.int64)
