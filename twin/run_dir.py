@@ -2,10 +2,18 @@
 
 Files
 -----
-trajectories.json          fold -> targets, SDSS-V control-software form (deg, s)
-trajectories_to_fold.json  targets -> fold (the same motion played backwards)
+trajectories.json          fold -> targets, SDSS-V control-software form (deg, s), MODEL angles
+trajectories_to_fold.json  targets -> fold (the same motion played backwards), model angles
+trajectories_encoder.json, trajectories_to_fold_encoder.json
+                           the same in ENCODER angles (model - alpha_offset_deg / beta_offset_deg
+                           of each robot), written when the layout carries angle offsets (a
+                           calibrated instrument): what the robots' firmware is sent
 layout.csv                 the layout planned on (id, x_mm, y_mm, kind, ...)
 targets.csv                per robot: id, target and original target (deg, and fiber mm), status
+
+Model angles are the planners' and checkers' (alpha from the plane's +x, beta from the alpha
+arm); an instrument's encoder reads model - offset (its zero sits at the model angle
+``offset``, see :mod:`rfp_twin.models.layout.columns`).
 robot.toml                 the robot spec used (with the buffer planned at)
 summary.json               every parameter, every metric, the 2D check in brief
 check2d.json               the independent 2D check in full (per-pair minimum distances)
@@ -25,14 +33,16 @@ from pathlib import Path
 import numpy as np
 
 from rfp_twin.models.errors import RfpError, TrajectoryError
-from rfp_twin.models.kinematics import forward
+from rfp_twin.models.kinematics import forward, forward_fiber
 from rfp_twin.models.layout import Layout
+from rfp_twin.models.layout.columns import FIBER_COLUMNS, robot_column, robot_fibers
 from rfp_twin.models.robot import RobotSpec
 from rfp_twin.planners.plan import Plan
 from rfp_twin.models.trajectory import AXES, Trajectory
 
 TRAJECTORIES = "trajectories.json"
 TRAJECTORIES_TO_FOLD = "trajectories_to_fold.json"
+ENCODER_SUFFIX = "_encoder"
 LAYOUT = "layout.csv"
 TARGETS = "targets.csv"
 ROBOT = "robot.toml"
@@ -60,9 +70,36 @@ def spec_to_toml(spec: RobotSpec) -> str:
     return "\n".join(lines) + "\n"
 
 
+def angle_offsets(layout: Layout) -> np.ndarray | None:
+    """(n_robots, 2) encoder zero offsets (alpha, beta) deg of a layout that carries them, else None."""
+    if "alpha_offset_deg" not in layout.extra and "beta_offset_deg" not in layout.extra:
+        return None
+    return np.column_stack([robot_column(layout, "alpha_offset_deg", 0.0),
+                            robot_column(layout, "beta_offset_deg", 0.0)])
+
+
+def to_encoder(traj: Trajectory, offsets: np.ndarray, layout: Layout) -> Trajectory:
+    """``traj`` in encoder angles: model - offset of each robot (``offsets`` (n_robots, 2) deg
+    in layout order)."""
+    k = layout.robot_indices(traj.robot_ids)
+    angles = tuple(tuple(a - offsets[k[i], ax] for i, a in enumerate(traj.angles[ax]))
+                   for ax in range(2))
+    return Trajectory(traj.robot_ids, traj.times, angles)
+
+
+def fiber_positions(spec: RobotSpec, layout: Layout, angles: np.ndarray) -> np.ndarray:
+    """(n_robots, 2) mm: each robot's fiber at ``angles`` (n, 2) deg: its own metrology fiber
+    and alpha arm on a layout that carries fibers, else the spec's fiber (beta_length_mm)."""
+    angles = np.ascontiguousarray(angles, dtype=np.float64)
+    base = np.ascontiguousarray(layout.robot_xy, dtype=np.float64)
+    if not any(c in layout.extra for c in FIBER_COLUMNS["metrology"]):
+        return forward(base, angles, spec.alpha_length_mm, spec.beta_length_mm)[0]
+    la = robot_column(layout, "alpha_len_mm", spec.alpha_length_mm)
+    return forward_fiber(base, angles, la, robot_fibers(layout, {})[:, 0])
+
+
 def write_targets_csv(path: Path, spec: RobotSpec, layout: Layout, plan: Plan) -> None:
-    fiber, _ = forward(np.ascontiguousarray(layout.robot_xy), np.ascontiguousarray(plan.targets),
-                       spec.alpha_length_mm, spec.beta_length_mm)
+    fiber = fiber_positions(spec, layout, plan.targets)
     with open(path, "w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
         w.writerow(["robot_id", "alpha_deg", "beta_deg", "x_mm", "y_mm", "status",
@@ -88,6 +125,11 @@ def write_run(out: Path, *, spec: RobotSpec, layout: Layout, plan: Plan, traject
     try:
         trajectory.to_json(tmp / TRAJECTORIES)
         trajectory.reversed().to_json(tmp / TRAJECTORIES_TO_FOLD)
+        offsets = angle_offsets(layout)
+        if offsets is not None:
+            enc = to_encoder(trajectory, offsets, layout)
+            enc.to_json(tmp / TRAJECTORIES.replace(".json", f"{ENCODER_SUFFIX}.json"))
+            enc.reversed().to_json(tmp / TRAJECTORIES_TO_FOLD.replace(".json", f"{ENCODER_SUFFIX}.json"))
         layout.to_csv(tmp / LAYOUT)
         write_targets_csv(tmp / TARGETS, spec, layout, plan)
         (tmp / ROBOT).write_text(spec_to_toml(spec), encoding="utf-8")
