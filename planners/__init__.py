@@ -28,6 +28,7 @@ _LAZY = {
     **dict.fromkeys(("random_targets", "check_targets", "check_angles"), "rfp_twin.planners.targets"),
     "apply_offline": "rfp_twin.planners.offline",
     "max_displacement": "rfp_twin.planners.stepwise",
+    "array_max_displacement": "rfp_twin.planners.stepwise",
     "SearchResolveSettings": "rfp_twin.planners.resolve_search",
     "RoadmapSettings": "rfp_twin.planners.roadmap",
     **dict.fromkeys(("ApfSettings", "CapfSettings", "plan_apf", "plan_apf_reconfiguration",

@@ -48,7 +48,7 @@ from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan,
 from rfp_twin.planners.continuation import continue_groups
 from rfp_twin.planners.offline import apply_offline
 from rfp_twin.planners.resolve_search import PathSet, SearchResolveSettings, resolve_groups
-from rfp_twin.planners.stepwise import ANGLE_EPS, StepRun, max_displacement, run_array
+from rfp_twin.planners.stepwise import ANGLE_EPS, StepRun, array_max_displacement, run_array
 from rfp_twin.planners.targets import check_targets, random_targets
 
 ALGORITHMS = ("greedy", "markov", "roadmap")
@@ -117,9 +117,7 @@ def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: 
              settings: PlannerSettings, seed: int) -> StepRun:
     """One planner run: the stepwise kernel (:func:`rfp_twin.planners.stepwise.run_array`), or for
     ``algorithm="roadmap"`` one prioritized roadmap pass."""
-    spec = geom.spec
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
-                          settings.step_deg)
+    md = array_max_displacement(geom, settings.step_deg)
     if settings.algorithm == "roadmap":
         return _run_roadmap(geom, start, dest, movable, settings, md, seed)
     return run_array(geom, start, dest, movable, step_deg=settings.step_deg,
@@ -234,8 +232,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
 
     original = targets.copy()
     replaced = np.zeros(n, dtype=bool)
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
-                          settings.step_deg)
+    md = array_max_displacement(geom, settings.step_deg)
     use_search = resolve and settings.resolve == "search"
     search_settings = settings.search or SearchResolveSettings()
     tau_sr = 0.0

@@ -37,7 +37,7 @@ from rfp_twin.planners.offline import apply_offline
 from rfp_twin.planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
 from rfp_twin.planners.solver import (ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings,
                                       plan_reconfiguration)
-from rfp_twin.planners.stepwise import max_displacement
+from rfp_twin.planners.stepwise import array_max_displacement
 from rfp_twin.planners.targets import random_targets
 from rfp_twin.planners.timing import BACKENDS, DEFAULT_BACKEND
 from rfp_twin.twin.outcome import Outcome
@@ -183,9 +183,7 @@ class Reconfiguration:
             from rfp_twin.planners.apf import apf_target_margin_mm
 
             return apf_target_margin_mm(self.geom, self._field) + FIELD_TARGET_SLACK_MM
-        spec = self.spec
-        return max_displacement(spec.alpha_length_mm, spec.beta_length_mm,
-                                float(self.geom.seg_end.max()), self.options.step_deg)
+        return array_max_displacement(self.geom, self.options.step_deg)
 
     def random_targets(self, rng: np.random.Generator) -> np.ndarray:
         """Seeded random right-armed targets, mutually clear, (n_robots, 2) deg; offline

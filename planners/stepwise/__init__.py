@@ -6,11 +6,14 @@ step rule (Eqs. 6-7); its path comes back as breakpoints on the step clock.
 Modules
 -------
 moves
-    The step-rule margin MD (:func:`max_displacement`, Eq. 7) and the kernel's scalar
-    helpers (one candidate move, trig rotation by whole steps, segment reach).
+    The step-rule margin MD (:func:`max_displacement`, Eq. 7; :func:`array_max_displacement`
+    for an array whose robots have their own geometry) and the kernel's scalar helpers
+    (one candidate move, trig rotation by whole steps, segment reach, obstacle distance).
 kernel
-    :func:`run_stepwise`, the numba kernel: GC and MC on raw arrays (its step loop; the
-    helpers it inlines are in ``candidates``, ``neighbours``, ``mc_choice`` and ``state``).
+    :func:`run_stepwise`, the numba kernel: GC and MC on raw arrays, each robot with its
+    own alpha arm, collision segment and buffer, each obstacle (point or segment) with its
+    own keep-out radius (its step loop; the helpers it inlines are in ``candidates``,
+    ``neighbours``, ``mc_choice`` and ``state``).
 candidates, neighbours, mc_choice, state
     The kernel's helpers: a robot's nine candidates and the step rule; its neighbours
     (short lists, free windows, Eq. 10, the Eq. 9 energy); the Markov choice; the
@@ -23,8 +26,9 @@ run
 Units: angles in deg, lengths in mm, time in planner steps.
 """
 from rfp_twin.planners.stepwise.kernel import ENERGY_CUTOFF_MM, NEAR_HORIZON, run_stepwise
-from rfp_twin.planners.stepwise.moves import ANGLE_EPS, DEG, max_displacement
+from rfp_twin.planners.stepwise.moves import (ANGLE_EPS, DEG, array_max_displacement,
+                                              max_displacement)
 from rfp_twin.planners.stepwise.run import StepRun, run_array
 
-__all__ = ["ANGLE_EPS", "DEG", "ENERGY_CUTOFF_MM", "NEAR_HORIZON", "StepRun", "max_displacement",
-           "run_array", "run_stepwise"]
+__all__ = ["ANGLE_EPS", "DEG", "ENERGY_CUTOFF_MM", "NEAR_HORIZON", "StepRun",
+           "array_max_displacement", "max_displacement", "run_array", "run_stepwise"]

@@ -12,10 +12,14 @@ cand : (9, 13) float64, one row per candidate: (alpha, beta) deg, cos alpha, sin
     (x0, y0, x1, y1) mm, reach mm (largest base distance of a segment point)
 arr : the array geometry, a tuple (base_xy (n, 2) mm, nbr_ptr (n + 1,) int64,
     nbr_idx (e,) int64, nbr_dist (e,) mm, fid_ptr (n + 1,) int64, fid_idx (f,) int64,
-    fid_xy (m, 2) mm, seg_end (n,) mm, buffer (n,) mm): CSR neighbours and fiducials
-par : the scalars, a tuple of floats (l_alpha mm, s0 = segment start mm, step_deg deg,
-    md mm (step-rule margin MD), fid_buffer mm, cos d, sin d, cos 2d, sin 2d,
-    free_step mm, disp mm, near_ref mm), set in :func:`rfp_twin.planners.stepwise.state.new_state`
+    fid_xy (m, 2) mm, fid_end_xy (m, 2) mm, fid_buffer (m,) mm, alpha_len (n,) mm,
+    seg_start (n,) mm, seg_end (n,) mm, buffer (n,) mm): CSR neighbours and obstacles
+    (obstacle f is the segment fid_xy[f]-fid_end_xy[f], a point when both ends agree,
+    with keep-out radius fid_buffer[f]); each robot's alpha arm, beta collision segment
+    (start, end along the beta arm) and buffer
+par : the scalars, a tuple of floats (step_deg deg, md mm (step-rule margin MD),
+    cos d, sin d, cos 2d, sin 2d, free_step mm, disp mm, near_ref mm), set in
+    :func:`rfp_twin.planners.stepwise.state.new_state`
 rs : the robots' geometry, a tuple (trig (n, 6): cos a, sin a, cos(a+b), sin(a+b),
     cos b, sin b; seg (n, 4) mm, beta segment; rho (n,) mm, reach)
 near : the short lists of near neighbours, a tuple (near_k (n, max_degree) int64 CSR
@@ -31,8 +35,9 @@ import math
 
 from numba import njit
 
-from rfp_twin.models.geometry2d import point_segment_distance, segments_within
-from rfp_twin.planners.stepwise.moves import ANGLE_EPS, DEG, _reach_from_cos, _rot, _sign, _toward
+from rfp_twin.models.geometry2d import segments_within
+from rfp_twin.planners.stepwise.moves import (ANGLE_EPS, DEG, _obstacle_distance, _reach_from_cos,
+                                              _rot, _sign, _toward)
 
 
 @njit(cache=True, inline="always")
@@ -50,7 +55,11 @@ def cand_trig(cand, q, na, nb):
 
 @njit(cache=True, inline="always")
 def cand_segment(cand, q, bx, by, s1, l_alpha, s0):
-    """Candidate q's beta segment (cand[q, 8:12]) and reach (cand[q, 12]) from its trig."""
+    """Candidate q's beta segment (cand[q, 8:12]) and reach (cand[q, 12]) from its trig.
+
+    (bx, by) mm is the robot's base, l_alpha mm its alpha arm, s0 and s1 mm the start and
+    end of its collision segment along the beta arm.
+    """
     ex = bx + l_alpha * cand[q, 2]
     ey = by + l_alpha * cand[q, 3]
     cand[q, 8] = ex + s0 * cand[q, 4]
@@ -108,13 +117,14 @@ def sort_by_cost(order, cost):
 def try_cand(cand, q, i, ca, cb, bx, by, s1, margin, check, arr, par, rs, near):
     """Fill candidate q's state; return q if it passes the step rule, else -1.
 
-    Robot i stands at (ca, cb) deg on base (bx, by) mm, segment end s1 mm. The step rule
-    is checked (``check``) with the margin ``margin`` mm against robot i's short list of
-    near neighbours only (see :func:`rfp_twin.planners.stepwise.neighbours.refresh_near`)
-    and its fiducials.
+    Robot i stands at (ca, cb) deg on base (bx, by) mm, segment end s1 mm (its own alpha
+    arm and segment start come from ``arr``). The step rule is checked (``check``) with
+    the margin ``margin`` mm against robot i's short list of near neighbours only (see
+    :func:`rfp_twin.planners.stepwise.neighbours.refresh_near`) and its obstacles.
     """
-    base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, seg_end, buffer = arr
-    l_alpha, s0, step_deg, md, fid_buffer, cd, sd, c2d, s2d, free_step, disp, near_ref = par
+    (base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
+     alpha_len, seg_start, seg_end, buffer) = arr
+    step_deg, md, cd, sd, c2d, s2d, free_step, disp, near_ref = par
     trig, seg, rho = rs
     near_k, near_col, near_cnt, near_until = near
     na = cand[q, 0]
@@ -135,7 +145,8 @@ def try_cand(cand, q, i, ca, cb, bx, by, s1, margin, check, arr, par, rs, near):
         c, s = _rot(trig[i, 4], trig[i, 5], kb, cd, sd, c2d, s2d)
         cand[q, 6] = c
         cand[q, 7] = s
-    cand_segment(cand, q, bx, by, s1, l_alpha, s0)
+    s0 = seg_start[i]
+    cand_segment(cand, q, bx, by, s1, alpha_len[i], s0)
     x0 = cand[q, 8]
     y0 = cand[q, 9]
     x1 = cand[q, 10]
@@ -158,17 +169,18 @@ def try_cand(cand, q, i, ca, cb, bx, by, s1, margin, check, arr, par, rs, near):
             continue
         ux = 0.5 * (seg[j, 0] + seg[j, 2]) - mx
         uy = 0.5 * (seg[j, 1] + seg[j, 3]) - my
-        reach = th + hi + 0.5 * (seg_end[j] - s0)
+        reach = th + hi + 0.5 * (seg_end[j] - seg_start[j])
         if ux * ux + uy * uy > reach * reach:
             continue
         if segments_within(x0, y0, x1, y1, seg[j, 0], seg[j, 1], seg[j, 2], seg[j, 3], th):
             hit = True
             break
     if not hit:
-        th = bi + fid_buffer + margin
         for k in range(fid_ptr[i], fid_ptr[i + 1]):
             f = fid_idx[k]
-            if point_segment_distance(fid_xy[f, 0], fid_xy[f, 1], x0, y0, x1, y1) <= th:
+            if _obstacle_distance(x0, y0, x1, y1, fid_xy[f, 0], fid_xy[f, 1],
+                                  fid_end_xy[f, 0], fid_end_xy[f, 1]) \
+                    <= bi + fid_buffer[f] + margin:
                 hit = True
                 break
     return -1 if hit else q
@@ -177,7 +189,7 @@ def try_cand(cand, q, i, ca, cb, bx, by, s1, margin, check, arr, par, rs, near):
 @njit(cache=True, inline="always")
 def any_move_passes(cand, i, ca, cb, bx, by, s1, arr, par, rs, near):
     """Does any of the 9 candidates other than staying pass the step rule (margin MD)?"""
-    l_alpha, s0, step_deg, md, fid_buffer, cd, sd, c2d, s2d, free_step, disp, near_ref = par
+    step_deg, md, cd, sd, c2d, s2d, free_step, disp, near_ref = par
     for q in range(9):
         if cand[q, 0] == ca and cand[q, 1] == cb:
             continue

@@ -11,8 +11,12 @@ Rules, as in the paper:
 * candidates: the 9 moves {-d, 0, +d}^2, clipped to the travel limits and to not
   overshoot the destination;
 * step rule (Eqs. 6-7): a candidate is allowed only if its beta capsule is farther than
-  ``buffer_i + buffer_j + MD`` from every neighbour's (and ``buffer_i + fiducial_buffer
-  + MD`` from every fiducial centre), MD = (l_alpha + l_beta) sin(2 d);
+  ``buffer_i + buffer_j + MD`` from every neighbour's (and ``buffer_i + fid_buffer_f
+  + MD`` from every obstacle f: a fiducial's centre, a guide-camera edge's segment),
+  MD = (l_alpha + l_beta) sin(2 d);
+* per-robot geometry: robot i's capsule is the segment ``seg_start[i]``..``seg_end[i]``
+  along its beta arm, which sits ``alpha_len[i]`` from its base, thickened by
+  ``buffer[i]`` (a calibrated instrument's robots differ; a nominal array's agree);
 * GC: the allowed candidate of least cost C = |theta - theta_dest| (Eq. 8);
 * MC: a robot at its destination stays unless a neighbour is within
   ``2 sigma + 3 MD`` (Eq. 10); otherwise with probability ``phobia`` it minimises the
@@ -27,7 +31,10 @@ a point at distance r along the beta arm moves at most (l_alpha + 2 r) d (radian
 the pair distance cannot drop by more than (l_alpha + 2 r_max) d below the mean of its
 two end values, which MD covers whenever r_max <= l_beta + l_alpha / 2.
 :func:`rfp_twin.planners.stepwise.moves.max_displacement` takes the larger of Eq. 7 and that
-bound, so the guarantee holds for any segment.
+bound, so the guarantee holds for any segment; with per-robot arms one MD must cover
+every robot, so :func:`rfp_twin.planners.stepwise.moves.array_max_displacement` takes the
+longest alpha arm and farthest segment point of the array. An obstacle does not move, so
+the same margin covers it.
 
 Speed (see benchmarks/RESULTS.md): the step loop (:func:`step_loop`) creates no arrays
 and counts no references. :func:`run_stepwise` allocates the state first
@@ -60,7 +67,8 @@ Where the helpers live (modules of :mod:`rfp_twin.planners.stepwise`):
   ``random_order``, ``mc_pick_sequential``);
 * ``state``: the state's allocation and initial values (``new_state``);
 * ``moves``: the scalar helpers (``_toward``, ``_rot``, ``_sign``, ``_reach_from_cos``);
-* here: :func:`run_stepwise`, :func:`step_loop` and ``record`` (breakpoints).
+* here: :func:`run_stepwise` (scalar geometry broadcast to per-robot arrays),
+  :func:`run_stepwise_arrays` (the compiled kernel), :func:`step_loop` and ``record``.
 
 After editing a helper, delete this folder's numba caches (``__pycache__/*.nbi``,
 ``*.nbc``): the cache of a function does not notice changes in the helpers it inlined.
@@ -70,6 +78,7 @@ Units: angles in deg, lengths in mm, time in steps; array shapes in :func:`run_s
 """
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from rfp_twin.planners.stepwise.candidates import (any_move_passes, commit, fill_candidates,
@@ -80,7 +89,8 @@ from rfp_twin.planners.stepwise.neighbours import (ENERGY_CUTOFF_MM, NEAR_HORIZO
                                                    energy_gradient, free_window, refresh_near, woken)
 from rfp_twin.planners.stepwise.state import new_state
 
-__all__ = ["ENERGY_CUTOFF_MM", "NEAR_HORIZON", "run_stepwise", "step_loop"]
+__all__ = ["ENERGY_CUTOFF_MM", "NEAR_HORIZON", "run_stepwise", "run_stepwise_arrays",
+           "step_loop"]
 
 
 @njit(cache=True, inline="always")
@@ -107,12 +117,20 @@ def record(ev, last, i, step, ca, cb, ma, mb, n_ev):
     return n_ev
 
 
-@njit(cache=True)
+def _per_item(x, n: int, shape: tuple = ()) -> np.ndarray:
+    """``x`` (a scalar or an array) as a C-contiguous float64 array of shape (n, *shape):
+    ``x`` itself when it already is one, else a new array."""
+    a = np.asarray(x, dtype=np.float64)
+    if a.shape == (n, *shape) and a.flags.c_contiguous:
+        return a
+    return np.array(np.broadcast_to(a, (n, *shape)))
+
+
 def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                  fid_ptr, fid_idx, fid_xy, fid_buffer,
-                 l_alpha, seg_start, seg_end, buffer, limits, step_deg, max_steps, md,
-                 greed, phobia, seed, ev_robot, ev_step, ev_angles, cur):
-    """Run GC/MC from ``start`` towards ``dest``.
+                 alpha_len, seg_start, seg_end, buffer, limits, step_deg, max_steps, md,
+                 greed, phobia, seed, ev_robot, ev_step, ev_angles, cur, fid_end_xy=None):
+    """Run GC/MC from ``start`` towards ``dest``: :func:`run_stepwise_arrays` on per-robot arrays.
 
     Parameters
     ----------
@@ -121,28 +139,56 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
     movable : (n,) bool; robots that are False never move (offline robots)
     nbr_ptr, nbr_idx : CSR robot adjacency (Eq. 4), int64
     nbr_dist : (len(nbr_idx),) float64 base distance of each adjacency entry, mm
-    fid_ptr, fid_idx : CSR robot -> fiducial index, int64; fid_xy (m, 2) mm
-    fid_buffer : float, keep-out radius of fiducials, mm
-    l_alpha, seg_start : float, mm
-    seg_end, buffer : (n,) float64, mm (per robot)
+    fid_ptr, fid_idx : CSR robot -> obstacle index, int64; fid_xy (m, 2) mm, each
+        obstacle's centre (a fiducial) or first end (a segment)
+    fid_buffer : float or (m,) float64, keep-out radius of each obstacle, mm
+    alpha_len, seg_start : float or (n,) float64, each robot's alpha arm and the start of
+        its beta collision segment, mm
+    seg_end, buffer : float or (n,) float64, end of each robot's segment and its buffer, mm
     limits : (4,) float64 (alpha_lo, alpha_hi, beta_lo, beta_hi), deg
-    step_deg : float; max_steps : int; md : float, mm (:func:`max_displacement`)
+    step_deg : float; max_steps : int; md : float, step-rule margin MD, mm
+        (:func:`rfp_twin.planners.stepwise.moves.array_max_displacement`)
     greed : (n,) float64 in [0, 1]; phobia : float in [0, 1]; greed 1 and phobia 0
         everywhere selects the deterministic greedy planner
     seed : int, seeds the kernel's splitmix64 generator (used by MC only)
     ev_robot, ev_step : (cap,) int64; ev_angles : (cap, 2) float64
         Output buffers for breakpoints: robot, step index, (alpha, beta).
     cur : (n, 2) float64, output: final configuration.
+    fid_end_xy : (m, 2) float64 or None, second end of each obstacle, mm [default: the
+        obstacles are points, ``fid_xy``]
 
     Returns
     -------
     n_events : int, number of breakpoints written (-1 if the buffers overflowed)
     n_steps : int, steps taken
     """
+    n = base_xy.shape[0]
+    fid_xy = _per_item(fid_xy, fid_xy.shape[0], (2,))
+    m = fid_xy.shape[0]
+    fid_end_xy = fid_xy if fid_end_xy is None else _per_item(fid_end_xy, m, (2,))
+    return run_stepwise_arrays(
+        base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx,
+        fid_xy, fid_end_xy, _per_item(fid_buffer, m), _per_item(alpha_len, n),
+        _per_item(seg_start, n), _per_item(seg_end, n), _per_item(buffer, n), limits,
+        step_deg, max_steps, md, greed, phobia, seed, ev_robot, ev_step, ev_angles, cur)
+
+
+@njit(cache=True)
+def run_stepwise_arrays(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
+                        fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
+                        alpha_len, seg_start, seg_end, buffer, limits, step_deg, max_steps, md,
+                        greed, phobia, seed, ev_robot, ev_step, ev_angles, cur):
+    """The compiled kernel of :func:`run_stepwise`, every geometry argument an array.
+
+    Arguments as in :func:`run_stepwise`, except: ``fid_end_xy`` (m, 2) float64 mm (equal
+    to ``fid_xy`` for a point obstacle), ``fid_buffer`` (m,) float64 mm, ``alpha_len``,
+    ``seg_start``, ``seg_end``, ``buffer`` (n,) float64 mm. Returns (n_events, n_steps).
+    """
     greedy, n_left, rng_state, par, rs, near, sched, scratch = new_state(
-        base_xy, start, dest, movable, nbr_ptr, fid_buffer, l_alpha, seg_start, seg_end,
+        base_xy, start, dest, movable, nbr_ptr, alpha_len, seg_start, seg_end,
         step_deg, md, greed, phobia, seed, cur)
-    arr = (base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, seg_end, buffer)
+    arr = (base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
+           alpha_len, seg_start, seg_end, buffer)
     return step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_left,
                      rng_state, arr, par, rs, near, sched, scratch,
                      (ev_robot, ev_step, ev_angles))
@@ -153,13 +199,14 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_le
               arr, par, rs, near, sched, scratch, ev):
     """The step loop of :func:`run_stepwise`: every robot, step after step, until all are home.
 
-    Arguments as in :func:`run_stepwise`, and the state of
+    Arguments as in :func:`run_stepwise_arrays`, and the state of
     :func:`rfp_twin.planners.stepwise.state.new_state`; ``cur`` (n, 2) deg is updated in
     place and ``ev`` = (ev_robot, ev_step, ev_angles) receives the breakpoints. Compiled
     without numba's runtime: it must not create arrays. Returns (n_events, n_steps).
     """
-    base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, seg_end, buffer = arr
-    l_alpha, s0, step_deg, md, fid_buffer, cd, sd, c2d, s2d, free_step, disp, near_ref = par
+    (base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
+     alpha_len, seg_start, seg_end, buffer) = arr
+    step_deg, md, cd, sd, c2d, s2d, free_step, disp, near_ref = par
     near_k, near_col, near_cnt, near_until = near
     last, home, asleep_at, moved_at, home_until, free_until = sched
     cand, cost, score_of, order = scratch

@@ -123,7 +123,7 @@ def mc_pick_sequential(rng_state, g, score_of, order, cand, i, ca, cb, bx, by, s
     counts the allowed candidates taken that move the robot (0: the caller checks
     whether any move at all passes before the robot sleeps).
     """
-    l_alpha, s0, step_deg, md, fid_buffer, cd, sd, c2d, s2d, free_step, disp, near_ref = par
+    step_deg, md, cd, sd, c2d, s2d, free_step, disp, near_ref = par
     random_order(rng_state, order)
     best = -1
     n_valid_moves = 0

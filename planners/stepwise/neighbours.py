@@ -19,8 +19,8 @@ from __future__ import annotations
 
 from numba import njit
 
-from rfp_twin.models.geometry2d import point_segment_distance, segment_closest_sq, segment_distance
-from rfp_twin.planners.stepwise.moves import DEG
+from rfp_twin.models.geometry2d import segment_closest_sq, segment_distance
+from rfp_twin.planners.stepwise.moves import DEG, _obstacle_distance
 
 #: MC energy (Eq. 9) counts neighbours whose capsules may be nearer than this (mm).
 ENERGY_CUTOFF_MM = 12.0
@@ -49,8 +49,9 @@ def refresh_near(i, step, arr, par, rs, near):
     neighbours that can matter to the step rule (``near_col[i]`` of them, all that
     try_cand scans), then those that only the MC energy needs (when near_ref > 0).
     """
-    base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, seg_end, buffer = arr
-    l_alpha, s0, step_deg, md, fid_buffer, cd, sd, c2d, s2d, free_step, disp, near_ref = par
+    (base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
+     alpha_len, seg_start, seg_end, buffer) = arr
+    step_deg, md, cd, sd, c2d, s2d, free_step, disp, near_ref = par
     trig, seg, rho = rs
     near_k, near_col, near_cnt, near_until = near
     cnt = 0
@@ -77,15 +78,16 @@ def refresh_near(i, step, arr, par, rs, near):
 def free_window(i, step, arr, par, rs, near):
     """MC: how many steps from now every candidate of robot i surely passes the step rule.
 
-    slack = min over the step-rule neighbours (and fiducials) of distance - threshold,
+    slack = min over the step-rule neighbours (and obstacles) of distance - threshold,
     from the base-disk bound where that suffices, else the exact segment distance.
     Between now and the visit k steps later each of the two segments moves by at
     most (k + 1) ``disp`` (k committed steps plus the candidate), so every candidate
     passes while 2 (k + 1) disp < slack. The short list bounds the window: a
     neighbour outside it cannot come within reach before ``near_until[i]``.
     """
-    base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, seg_end, buffer = arr
-    l_alpha, s0, step_deg, md, fid_buffer, cd, sd, c2d, s2d, free_step, disp, near_ref = par
+    (base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
+     alpha_len, seg_start, seg_end, buffer) = arr
+    step_deg, md, cd, sd, c2d, s2d, free_step, disp, near_ref = par
     trig, seg, rho = rs
     near_k, near_col, near_cnt, near_until = near
     need = 2.0 * disp
@@ -102,11 +104,11 @@ def free_window(i, step, arr, par, rs, near):
             if g <= need:
                 return 0
         slack = min(slack, g)
-    th = bi + fid_buffer + md
     for k in range(fid_ptr[i], fid_ptr[i + 1]):
         f = fid_idx[k]
-        g = point_segment_distance(fid_xy[f, 0], fid_xy[f, 1],
-                                   seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3]) - th
+        th = bi + fid_buffer[f] + md
+        g = _obstacle_distance(seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3],
+                               fid_xy[f, 0], fid_xy[f, 1], fid_end_xy[f, 0], fid_end_xy[f, 1]) - th
         if g <= need:
             return 0
         slack = min(slack, g)
@@ -122,8 +124,9 @@ def encroached(i, margin, step, arr, par, rs, home_until):
     bound has shrunk to the threshold; only neighbours move, each reach by at most
     free_step / 2 per step, so no check is needed until ``home_until[i]`` (set here).
     """
-    base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, seg_end, buffer = arr
-    l_alpha, s0, step_deg, md, fid_buffer, cd, sd, c2d, s2d, free_step, disp, near_ref = par
+    (base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
+     alpha_len, seg_start, seg_end, buffer) = arr
+    step_deg, md, cd, sd, c2d, s2d, free_step, disp, near_ref = par
     trig, seg, rho = rs
     hit = False
     slack = 1e300
@@ -147,6 +150,8 @@ def encroached(i, margin, step, arr, par, rs, home_until):
 def energy_gradient(i, s1, arr, par, rs, near):
     """Eq. 9 energy E = sum 1/D^2 of robot i now (mm^-2), and dE/dalpha, dE/dbeta (per deg).
 
+    s1 mm is robot i's segment end; its alpha arm and segment start come from ``arr``.
+
     The nine candidates differ from the current state by at most one step, so the MC
     planner ranks them by E + grad . (dalpha, dbeta): one pass over the neighbours
     instead of nine. By the envelope theorem dD/dtheta is the motion of robot i's
@@ -154,8 +159,9 @@ def energy_gradient(i, s1, arr, par, rs, near):
     disk bound is beyond ENERGY_CUTOFF_MM are left out: their term changes between
     candidates by < 2 MD / cutoff^3, too little to reorder what near ones separate.
     """
-    base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, seg_end, buffer = arr
-    l_alpha, s0, step_deg, md, fid_buffer, cd, sd, c2d, s2d, free_step, disp, near_ref = par
+    (base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
+     alpha_len, seg_start, seg_end, buffer) = arr
+    step_deg, md, cd, sd, c2d, s2d, free_step, disp, near_ref = par
     trig, seg, rho = rs
     near_k, near_col, near_cnt, near_until = near
     e = 0.0
@@ -165,6 +171,8 @@ def energy_gradient(i, s1, arr, par, rs, near):
     sa_ = trig[i, 1]
     cab = trig[i, 2]
     sab = trig[i, 3]
+    l_alpha = alpha_len[i]
+    s0 = seg_start[i]
     seg_len = s1 - s0
     for m in range(near_cnt[i]):
         k = near_k[i, m]

@@ -58,11 +58,14 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
 
     Parameters
     ----------
-    geom : ArrayGeometry (layout, spec, buffers, Eq. 4 neighbours, fiducials)
+    geom : ArrayGeometry (layout, spec, Eq. 4 neighbours; each robot's alpha arm, collision
+        segment and buffer; the obstacles: fiducials as points, guide-camera edges as
+        segments, each with its keep-out radius)
     start, dest : (n, 2) deg
     movable : (n,) bool; robots that are False never move
     step_deg : float, planner step, deg; max_steps : int, step limit
-    md : float, step-rule margin MD, mm (:func:`rfp_twin.planners.stepwise.moves.max_displacement`)
+    md : float, step-rule margin MD, mm (for per-robot geometry, at least
+        :func:`rfp_twin.planners.stepwise.moves.array_max_displacement`)
     greed, phobia : float in [0, 1], the Markov parameters of every robot; greed 1 and
         phobia 0 is the greedy planner
     seed : int, seed of the kernel's generator (Markov moves)
@@ -89,10 +92,10 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
         t0 = time.perf_counter()
         n_ev, n_steps = run_stepwise(
             geom.base_xy, start, dest, movable, geom.nbr_ptr, geom.nbr_idx, geom.nbr_dist,
-            geom.fid_ptr, geom.fid_idx, geom.fid_xy, geom.fiducial_buffer,
-            spec.alpha_length_mm, spec.segment_start_mm, geom.seg_end, geom.buffer, limits,
+            geom.fid_ptr, geom.fid_idx, geom.fid_xy, geom.fid_buffer,
+            geom.alpha_len, geom.seg_start, geom.seg_end, geom.buffer, limits,
             step_deg, max_steps, md, greed_all, phobia, seed,
-            ev_robot, ev_step, ev_angles, final)
+            ev_robot, ev_step, ev_angles, final, fid_end_xy=geom.fid_end_xy)
         seconds += time.perf_counter() - t0
         if n_ev >= 0:
             return StepRun(final, int(n_steps), ev_robot[:n_ev], ev_step[:n_ev], ev_angles[:n_ev],

@@ -28,11 +28,14 @@ from rfp_twin.planners.stepwise.neighbours import ENERGY_CUTOFF_MM
 
 
 @njit(cache=True)
-def new_state(base_xy, start, dest, movable, nbr_ptr, fid_buffer, l_alpha, seg_start, seg_end,
+def new_state(base_xy, start, dest, movable, nbr_ptr, alpha_len, seg_start, seg_end,
               step_deg, md, greed, phobia, seed, cur):
     """The kernel's state for a run from ``start`` (copied to ``cur``) towards ``dest``.
 
-    Arguments as in :func:`rfp_twin.planners.stepwise.kernel.run_stepwise`. Returns
+    Arguments as in :func:`rfp_twin.planners.stepwise.kernel.run_stepwise_arrays`
+    (``alpha_len``, ``seg_start``, ``seg_end`` (n,) mm: each robot's alpha arm and
+    collision segment). The bounds ``free_step`` and ``disp`` are the largest over the
+    robots. Returns
     (greedy, n_left, rng_state, par, rs, near, sched, scratch): greedy is True when
     every robot has greed 1 and phobia is 0 (the deterministic GC planner); n_left
     counts the movable robots away from their destination; rng_state (1,) uint64 is
@@ -65,19 +68,21 @@ def new_state(base_xy, start, dest, movable, nbr_ptr, fid_buffer, l_alpha, seg_s
     near_ref = 0.0 if greedy else ENERGY_CUTOFF_MM    # MC energy needs neighbours to the cutoff
     home_until = np.zeros(n, dtype=np.int64)          # MC: parked robot needs no Eq. 10 check
     free_until = np.zeros(n, dtype=np.int64)          # MC: every candidate passes the step rule
-    s1_max = 0.0
+    s1_max = 0.0     # farthest segment point along any beta arm, mm
+    la_max = 0.0     # longest alpha arm, mm
     for i in range(n):
-        s1_max = max(s1_max, seg_end[i], seg_start)
+        s1_max = max(s1_max, seg_end[i], seg_start[i])
+        la_max = max(la_max, alpha_len[i])
     # most a base-disk bound |b_i - b_j| - rho_i - rho_j shrinks in one step, mm
     free_step = 2.0 * s1_max * step_deg * DEG * 1.001
     # largest displacement of any point of a beta segment in one step (both axes), mm
-    disp = (l_alpha + 2.0 * s1_max) * step_deg * DEG * 1.001
+    disp = (la_max + 2.0 * s1_max) * step_deg * DEG * 1.001
     cand = np.empty((9, 13))  # na, nb, cos a, sin a, cos ab, sin ab, cos b, sin b, segment, reach
     cost = np.empty(9)
     score_of = np.empty(9)   # MC: each candidate's score (cost or linearised energy)
     order = np.empty(9, dtype=np.int64)
 
-    par = (float(l_alpha), float(seg_start), float(step_deg), float(md), float(fid_buffer),
+    par = (float(step_deg), float(md),
            math.cos(step_deg * DEG), math.sin(step_deg * DEG),
            math.cos(2.0 * step_deg * DEG), math.sin(2.0 * step_deg * DEG),
            free_step, disp, near_ref)
@@ -89,7 +94,7 @@ def new_state(base_xy, start, dest, movable, nbr_ptr, fid_buffer, l_alpha, seg_s
         cur[i, 0] = start[i, 0]
         cur[i, 1] = start[i, 1]
         cand_trig(cand, 0, cur[i, 0], cur[i, 1])
-        cand_segment(cand, 0, base_xy[i, 0], base_xy[i, 1], seg_end[i], l_alpha, seg_start)
+        cand_segment(cand, 0, base_xy[i, 0], base_xy[i, 1], seg_end[i], alpha_len[i], seg_start[i])
         commit(rs, cand, i, 0)
         home[i] = abs(cur[i, 0] - dest[i, 0]) < ANGLE_EPS and abs(cur[i, 1] - dest[i, 1]) < ANGLE_EPS
         if movable[i] and not home[i]:
