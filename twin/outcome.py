@@ -71,6 +71,7 @@ class Outcome:
             "command": command if command is not None else " ".join(["rfp-twin"] + sys.argv[1:]),
             "spec": spec.source, "robot": spec.name, "layout": layout or rc.layout.name,
             "n_robots": geom.n_robots, "n_fiducials": rc.layout.n_fiducials,
+            "n_gfa": int(np.sum(rc.layout.kinds == "gfa")),
             "buffer_mm": spec.buffer_mm,
             "segment_mm": [spec.segment_start_mm, spec.segment_end(spec.buffer_mm)],
             "step_deg": o.step_deg if o.stepwise else None, "algorithm": o.algorithm,

@@ -144,7 +144,9 @@ def print_summary(summary: dict, out: Path) -> None:
     t.add_column("value", justify="right")
     rows = [
         ("robots (offline)", f"{summary['n_robots']} ({m['n_offline']})"),
-        ("fiducials", str(summary["n_fiducials"])),
+        (("fiducials / guide cameras", f"{summary['n_fiducials'] - summary['n_gfa']} / "
+                                       f"{summary['n_gfa']}")
+         if summary.get("n_gfa") else ("fiducials", str(summary["n_fiducials"]))),
         ("algorithm / direction", f"{summary['algorithm']} / {summary['direction']}"),
         ("buffer / step", f"{summary['buffer_mm']:.3f} mm / " + (
             f"{summary['step_deg']} deg" if summary["step_deg"] is not None
