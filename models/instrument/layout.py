@@ -3,8 +3,13 @@
 The planning frame of an instrument is its wok frame turned by +90 degrees about z: a
 flat-wok hole's local axes (i = (0, -1, 0), j = (1, 0, 0) in the wok frame) become the
 plane's x and y, so every robot's alpha = 0 points along +x as in every other layout
-(:func:`wok_to_plane`, :func:`plane_to_wok`). Each robot sits at its hole + dx i + dy j
-and carries its own calibration as layout columns
+(:func:`wok_to_plane`, :func:`plane_to_wok`). A robot's position in the layout is where its
+alpha axis (through its hole + dx i + dy j, along the hole's k) meets the focal surface,
+:data:`FOCAL_HEIGHT_MM` above the hole: there its arms move. On a flat wok that is the
+hole + offset itself; on the curved wok the tilted axes move the heads by up to 5 mm from
+their holes' x, y, as in SDSS-V's 3D robot positions. ``z_mm`` is that point's height
+relative to a flat wok's focal surface (0 on a flat wok). Each robot carries its own
+calibration as layout columns
 (:mod:`rfp_twin.models.layout.columns`): ``alpha_len_mm``, its three fibers (the APOGEE
 one only on ``ApogeeBoss`` holes), ``alpha_offset_deg, beta_offset_deg``, ``z_mm`` and its
 axis ``kx, ky, kz`` (plane frame), plus ``hole_id``, ``hole_type``. Obstacles follow
@@ -34,6 +39,8 @@ INSTRUMENTS = {
 #: Keep-out radius of a fiducial and of a guide camera in SDSS-V production, mm.
 PRODUCTION_FIDUCIAL_BUFFER_MM = 3.0
 PRODUCTION_GFA_BUFFER_MM = 3.0
+#: Fibers above the wok surface along the robot's axis, mm (coordio defaults).
+FOCAL_HEIGHT_MM = 143.1
 #: Layout ids of obstacles: fiducial ``F<k>`` -> FIDUCIAL_ID_BASE + k; guide camera g -> GFA_ID_BASE + g.
 FIDUCIAL_ID_BASE = 1_000_000
 GFA_ID_BASE = 2_000_000
@@ -74,11 +81,11 @@ def instrument_layout(source: str | Path | Calibration, name: str | None = None)
         cal = read_calibration(source)
     name = name or cal.folder.name
     n, m, g = cal.n_robots, cal.fiducial_xyz.shape[0], cal.gfa_segments.shape[0]
-    base = cal.base_xyz
+    head = cal.base_xyz + FOCAL_HEIGHT_MM * cal.frames[:, 2]
     axis = cal.frames[:, 2]
     fid_num = np.array([int(re.sub(r"\D", "", s)) for s in cal.fiducial_names], dtype=np.int64)
     ids = np.concatenate([cal.robot_ids, FIDUCIAL_ID_BASE + fid_num, GFA_ID_BASE + 1 + np.arange(g)])
-    xy = np.concatenate([wok_to_plane(base[:, :2]), wok_to_plane(cal.fiducial_xyz[:, :2]),
+    xy = np.concatenate([wok_to_plane(head[:, :2]), wok_to_plane(cal.fiducial_xyz[:, :2]),
                          wok_to_plane(cal.gfa_segments[:, 0])])
     kinds = ["robot"] * n + ["fiducial"] * m + ["gfa"] * g
     blank_obs = [""] * (m + g)
@@ -99,7 +106,7 @@ def instrument_layout(source: str | Path | Calibration, name: str | None = None)
         "apogee_y_mm": robot(cal.fibers[:, 2, 1].tolist()),
         "alpha_offset_deg": robot(cal.angle_offset[:, 0].tolist()),
         "beta_offset_deg": robot(cal.angle_offset[:, 1].tolist()),
-        "z_mm": robot(base[:, 2].tolist()),
+        "z_mm": robot((head[:, 2] - FOCAL_HEIGHT_MM).tolist()),
         "kx": robot(k_plane[:, 0].tolist()), "ky": robot(k_plane[:, 1].tolist()),
         "kz": robot(k_plane[:, 2].tolist()),
         "fiducial_watch": robot(_fiducial_watch(cal).tolist(), fmt=lambda v: str(int(v))),

@@ -16,8 +16,12 @@ Robot columns (mm and deg; plane frame, see :mod:`rfp_twin.models.instrument.fra
 ``alpha_offset_deg``      model angle of the alpha encoder's zero (model = encoder + offset)
 ``beta_offset_deg``       same for beta
 ``buffer_add_mm``         added to the run's collision buffer for this robot (worn robots)
-``z_mm``                  height of the robot's base above the wok's reference plane
-``kx, ky, kz``            the robot's axis (unit), plane frame; blank: (0, 0, 1)
+``z_mm``                  height of the robot's focal-surface point (x_mm, y_mm) relative to
+                          a flat focal surface (blank: 0)
+``kx, ky, kz``            the robot's axis (unit), plane frame; blank: (0, 0, 1). A tilted
+                          robot's arms move in the plane normal to k through (x, y, z); the
+                          2D model uses their projection, which is never closer than the 3D
+                          bodies, and adds the projection's shortening to its buffer
 ========================  ===============================================================
 
 Obstacle columns (rows of kind ``fiducial`` or ``gfa``):
@@ -170,6 +174,11 @@ def robot_collision_arrays(spec, layout, buffer_mm: float):
     seg_start = np.maximum(spec.segment_start_mm + shift, 0.0)
     ends = np.array([spec.segment_end(b) for b in buffer], dtype=np.float64).reshape(-1)
     seg_end = np.maximum(ends + shift, seg_start)
+    if "kz" in layout.extra:
+        # a tilted robot's arm, projected on the plane, is shorter by up to L (1 - kz): the
+        # planar model is then off by at most that much; the buffer covers it
+        kz = robot_column(layout, "kz", 1.0)
+        buffer = buffer + (alpha_len + seg_end) * (1.0 - kz)
     return alpha_len, seg_start, seg_end, buffer
 
 

@@ -89,3 +89,23 @@ def test_a_per_robot_buffer_column_enlarges_that_robot_only():
     bad = Layout(lay.ids, lay.xy, lay.kinds, name="bad", extra={"buffer_add_mm": ["", "x"] + [""] * 5})
     with pytest.raises(LayoutError, match=r"bad: id 1 field 'buffer_add_mm' = 'x'"):
         ArrayGeometry(load_spec("sdss-v"), bad, 2.0).buffer
+
+
+def test_curved_wok_robots_sit_where_their_tilted_axes_meet_the_focal_surface():
+    from rfp_twin.models.instrument.layout import FOCAL_HEIGHT_MM
+
+    cal = read_calibration(calibration_folder("sdss-v-curved"))
+    lay = layout_by_name("sdss-v-curved", 22.4)
+    k = int(np.argmin(cal.frames[:, 2, 2]))                 # the most tilted robot
+    head = cal.base_xyz[k] + FOCAL_HEIGHT_MM * cal.frames[k, 2]
+    np.testing.assert_allclose(plane_to_wok(lay.robot_xy[k]), head[:2], atol=1e-9)
+    # 2 deg of tilt over 143 mm: the head is ~5 mm from its hole's x, y
+    assert 4.0 < np.hypot(*(head[:2] - cal.hole_xyz[k, :2])) < 6.0
+    # the planar model adds the projection's shortening to that robot's buffer only
+    geom = ArrayGeometry(load_spec("sdss-v-production"), lay, 2.0)
+    tilt = 1.0 - cal.frames[:, 2, 2]
+    np.testing.assert_allclose(geom.buffer - 2.0, (geom.alpha_len + geom.seg_end) * tilt,
+                               atol=1e-12)
+    assert 0.005 < geom.buffer[k] - 2.0 < 0.02
+    flat = ArrayGeometry(load_spec("sdss-v-production"), layout_by_name("sdss-v-apo", 22.4), 2.0)
+    assert np.all(flat.buffer == 2.0)
