@@ -241,3 +241,25 @@ def test_timing_backend_from_the_cli(tmp_path):
     for s in runs.values():
         assert max(s["postprocess"]["max_speed_deg_s"]) <= 30.0 * 1.01
         assert s["check2d"]["ok"]
+
+
+def test_a_bad_calibration_folder_is_one_line_exit_2_and_writes_nothing(tmp_path):
+    import shutil
+
+    from rfp_twin.models.instrument import calibration_folder
+
+    cal = tmp_path / "cal"
+    shutil.copytree(calibration_folder("sdss-v-lco"), cal)
+    table = cal / "positionerTable.csv"
+    table.chmod(0o644)
+    lines = table.read_text().splitlines()
+    head = lines[0].split(",")
+    row = lines[3].split(",")
+    row[head.index("alphaArmLen")] = "nan"
+    lines[3] = ",".join(row)
+    table.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "o"
+    r = run("plan", "--preset", "sdss-v-production", "--calibration", str(cal), "--out", str(out))
+    assert r.returncode == 2 and not out.exists()
+    msg = r.stderr.strip()
+    assert "\n" not in msg and "positionerTable.csv:4: field 'alphaArmLen' = 'nan'" in msg, msg
