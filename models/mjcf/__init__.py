@@ -2,10 +2,13 @@
 
 Units inside the model: mm, kg, s, radians; the public API takes mm and degrees. One
 body tree per robot (``r<id>`` > ``r<id>_alpha`` > ``r<id>_beta``, position servos on
-both hinges), ``fid<id>`` bodies for fiducials, the focal plate, two lights and three
-cameras. MuJoCo collides meshes as convex hulls, so collision geoms are the convex
-pieces from :mod:`rfp_twin.models.geometry`. The broadphase only pairs geoms whose boxes
-overlap, so only neighbours (Sayres 2021 Eq. 4) reach the narrowphase:
+both hinges), ``fid<id>`` bodies for obstacles, the focal plate, two lights and three
+cameras. Each robot's own geometry from the layout columns (alpha arm, fibers, base
+height and axis) and each obstacle's shape (posts, guide-camera walls) are built in
+(:mod:`rfp_twin.models.mjcf.bodies`). MuJoCo collides meshes as convex hulls, so
+collision geoms are the convex pieces from :mod:`rfp_twin.models.geometry`. The
+broadphase only pairs geoms whose boxes overlap, so only neighbours (Sayres 2021 Eq. 4)
+reach the narrowphase:
 :meth:`TwinModel.neighbour_pairs` lists them. Modules:
 
 - :mod:`rfp_twin.models.mjcf.options`: names, colours, :class:`ServoParams`, :class:`ModelOptions`

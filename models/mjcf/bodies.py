@@ -8,18 +8,39 @@ Units inside the model: mm, kg, s, radians. One body tree per robot::
         r<id>_beta   hinge ``r<id>_beta`` about z at ``l_alpha`` along the alpha arm;
                      sites ``r<id>_<fiber>`` at the fiber tips
 
-plus ``fid<id>`` static bodies for fiducials. Each hinge has a position actuator
-(``r<id>_alpha`` / ``r<id>_beta``) with gains from :class:`ServoParams` for the joint's
-inertia (armature + link) and a torque limit; joint ranges are the spec's travel limits.
-Visual geoms use the ``visual`` default class (the link's watertight trimesh), collision
-geoms the ``collision`` class (its convex pieces), as mujoco_menagerie does.
+plus ``fid<id>`` static bodies for the obstacles (fiducials and guide-camera edges). Each
+hinge has a position actuator (``r<id>_alpha`` / ``r<id>_beta``) with gains from
+:class:`ServoParams` for the joint's inertia (armature + link) and a torque limit; joint
+ranges are the spec's travel limits. Visual geoms use the ``visual`` default class (the
+link's watertight trimesh), collision geoms the ``collision`` class (its convex pieces), as
+mujoco_menagerie does.
+
+Each robot's own geometry (layout columns, :mod:`rfp_twin.models.layout.columns`;
+:func:`robot_frames`): its alpha arm ``alpha_len_mm`` puts its beta body (the beta hinge)
+at that distance along the alpha arm; the alpha link's *mesh* stays the nominal one (it
+differs by at most 0.1 mm on the calibrated instruments; only the joint axis moves). Its
+fibers get sites where it carries them (``robot_fibers``: none where a fiber is not
+carried). Its base sits ``z_mm`` above the others and the whole robot is tilted so that
+its alpha axis is along ``(kx, ky, kz)`` (the smallest rotation taking z to that axis: the
+arm's alpha = 0 direction stays as close to +x as the tilt allows). Blank columns give the
+nominal robot, bit for bit.
+
+Obstacles (:func:`obstacle_shapes`): a point obstacle (a fiducial) is the fiducial post at
+its xy; a segment obstacle (a ``gfa`` row with ``x2_mm, y2_mm``: a guide-camera chip edge)
+is a thin wall along the segment, a box ``2 * fiducial_radius_mm`` thick (the same estimate
+as the posts, inside the keep-out), reaching ``fiducial_radius_mm`` past both ends, over the
+height of the beta arms (the beta link's z range, :data:`SLAB_Z_MARGIN_MM` more each way):
+only beta arms collide with it, as only beta arms are checked against obstacles in 2D.
+The layout gives no obstacle heights: each obstacle stands at the ``z_mm`` of the robot
+nearest to it (its midpoint for a segment; 0 on flat layouts).
 
 Contact filtering (contype / conaffinity bits): beta pieces collide with beta pieces;
-alpha pieces with alpha and beta pieces; fiducials with alpha and beta pieces; fixed
-bodies and the plate with nothing.
+alpha pieces with alpha and beta pieces; fiducials with alpha and beta pieces, guide-camera
+walls with beta pieces; fixed bodies and the plate with nothing.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -27,7 +48,9 @@ import numpy as np
 import trimesh
 
 from rfp_twin.models.geometry import RobotGeometry
+from rfp_twin.models.errors import LayoutError
 from rfp_twin.models.layout import Layout
+from rfp_twin.models.layout.columns import FIBERS, obstacle_arrays, robot_column, robot_fibers
 from rfp_twin.models.mjcf.options import (BIT_ALPHA, BIT_BETA, COLLISION_CLASS, COLLISION_GROUP,
                                  DEFAULT_FIBER_RGBA, FIBER_RGBA, MNM, RGBA, VISUAL_CLASS,
                                  VISUAL_GROUP, ServoParams, fiducial_name, robot_name)
@@ -66,18 +89,132 @@ class _MovingLink:
     conaffinity: int
 
 
+#: Height added below and above the beta link's z range for a guide-camera wall, mm
+#: (estimate: covers a robot tilted by 2 deg, whose arm tip then rises or sinks by 0.8 mm,
+#: and the height change of a curved wok along a chip edge).
+SLAB_Z_MARGIN_MM = 2.0
+#: Largest departure of a layout axis ``(kx, ky, kz)`` from unit length (it is normalised).
+AXIS_TOL = 1e-3
+
+
+@dataclass(frozen=True)
+class RobotFrames:
+    """Each robot's own placement and fibers, layout robot order (mm).
+
+    alpha_len : (n,) float64, alpha axis to beta hinge
+    z : (n,) float64, base height above the nominal robot frames
+    quat : (n, 4) float64, (w, x, y, z) rotation taking +z to the robot's axis
+    tilted : (n,) bool, rows whose axis is not +z (their ``quat`` is applied)
+    fibers : (n, k, 2) float64, fiber (x, y) in the beta frame per name of the geometry's
+        fibers (same order); NaN where the robot does not carry it
+    """
+
+    alpha_len: np.ndarray
+    z: np.ndarray
+    quat: np.ndarray
+    tilted: np.ndarray
+    fibers: np.ndarray
+
+
+def robot_frames(layout: Layout, geometry: RobotGeometry) -> RobotFrames:
+    """:class:`RobotFrames` from the layout's columns (blank: the geometry's values).
+
+    Raises
+    ------
+    LayoutError
+        An axis ``(kx, ky, kz)`` that is not a unit vector (within :data:`AXIS_TOL`).
+    """
+    n = layout.n_robots
+    p = geometry.params
+    la = robot_column(layout, "alpha_len_mm", float(geometry.link_offset("beta")[0]))
+    z = robot_column(layout, "z_mm", 0.0)
+    k = np.column_stack([robot_column(layout, c, d) for c, d in (("kx", 0.0), ("ky", 0.0),
+                                                                 ("kz", 1.0))])
+    norm = np.sqrt((k * k).sum(axis=1))
+    bad = np.flatnonzero(np.abs(norm - 1.0) > AXIS_TOL)
+    if bad.size:
+        r = int(bad[0])
+        raise LayoutError(f"{layout.name}: robot {int(layout.robot_ids[r])} fields 'kx, ky, kz' "
+                          f"= {k[r].tolist()} (length {norm[r]:.6f}); allowed: a unit vector "
+                          f"(within {AXIS_TOL}) or blank")
+    tilted = (k[:, 0] != 0.0) | (k[:, 1] != 0.0)
+    quat = np.zeros((n, 4))
+    quat[:, 0] = 1.0
+    u = k[tilted] / norm[tilted, None]
+    # half-way quaternion of z -> u: (1 + z.u, z x u), normalised
+    q = np.column_stack([1.0 + u[:, 2], -u[:, 1], u[:, 0], np.zeros(len(u))])
+    quat[tilted] = q / np.sqrt((q * q).sum(axis=1))[:, None]
+    own = robot_fibers(layout, {f: (x, y) for f, x, y in p.fibers if f in FIBERS})
+    fibers = np.empty((n, len(p.fibers), 2))
+    for c, (f, x, y) in enumerate(p.fibers):
+        fibers[:, c] = own[:, FIBERS.index(f)] if f in FIBERS else (x, y)
+    return RobotFrames(la, z, quat, tilted, fibers)
+
+
+@dataclass(frozen=True)
+class ObstacleShapes:
+    """The obstacles of a layout (non-robot rows, layout order) as the model draws them, mm.
+
+    a, b : (m, 2) float64, ends (``a == b``: a point, drawn as a fiducial post at ``a``)
+    z : (m,) float64, height of the obstacle's frame above the nominal robot frames
+    slab_z : (2,) float64, z range of a wall (robot frame, before ``z``)
+    half_width : float, half thickness of a wall
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    z: np.ndarray
+    slab_z: np.ndarray
+    half_width: float
+
+    @property
+    def segment(self) -> np.ndarray:
+        """(m,) bool, True for the walls (segment obstacles)."""
+        return np.any(self.a != self.b, axis=1)
+
+    def slab_box(self, f: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Wall ``f`` as a box in its body frame (origin at ``a[f]``, height ``z[f]``):
+        (centre (3,), half sizes (3,), quaternion (w, x, y, z) about z), mm."""
+        d = self.b[f] - self.a[f]
+        length = float(np.hypot(d[0], d[1]))
+        yaw = math.atan2(d[1], d[0])
+        z0, z1 = float(self.slab_z[0]), float(self.slab_z[1])
+        centre = np.array([d[0] / 2.0, d[1] / 2.0, (z0 + z1) / 2.0])
+        half = np.array([length / 2.0 + self.half_width, self.half_width, (z1 - z0) / 2.0])
+        return centre, half, np.array([math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0)])
+
+
+def obstacle_shapes(spec: RobotSpec, layout: Layout, geometry: RobotGeometry,
+                    robot_z: np.ndarray) -> ObstacleShapes:
+    """:class:`ObstacleShapes` of the layout (:func:`obstacle_arrays`); ``robot_z`` (n,) mm
+    the robots' base heights (an obstacle stands at its nearest robot's)."""
+    a, b, _ = obstacle_arrays(spec, layout)
+    z = np.zeros(len(a))
+    if len(a) and layout.n_robots and np.any(robot_z != 0.0):
+        ref = (a + b) / 2.0
+        d2 = ((ref[:, None, :] - layout.robot_xy[None, :, :]) ** 2).sum(axis=2)
+        z = np.asarray(robot_z, dtype=np.float64)[np.argmin(d2, axis=1)]
+    oz = float(geometry.link_offset("alpha")[2] + geometry.link_offset("beta")[2])
+    vz = np.concatenate([np.asarray(m.vertices)[:, 2] for m in geometry.links["beta"].collision])
+    slab_z = np.array([vz.min() + oz - SLAB_Z_MARGIN_MM, vz.max() + oz + SLAB_Z_MARGIN_MM])
+    return ObstacleShapes(a, b, z, slab_z, float(geometry.params.fiducial_radius_mm))
+
+
 def add_grid(s: mujoco.MjSpec, spec: RobotSpec, layout: Layout, geometry: RobotGeometry,
              servo: ServoParams, collide_alpha: bool, base_z: float, vis, col,
              mesh_files: dict | None) -> None:
     """Add materials, mesh assets, one body tree + two actuators per robot and one body
-    per fiducial; robot frames at height ``base_z`` mm."""
+    per obstacle; robot frames at height ``base_z`` mm (plus each robot's ``z_mm``)."""
     p = geometry.params
+    frames = robot_frames(layout, geometry)
+    obstacles = obstacle_shapes(spec, layout, geometry, frames.z)
+    posts = bool(layout.n_fiducials) and not obstacles.segment.all()
     # materials and meshes (one asset per link piece, shared by every robot)
     for key, rgba in RGBA.items():
         s.add_material(name=key, rgba=list(rgba))
-    used = ["body", "alpha", "beta"] + (["fiducial"] if layout.n_fiducials else [])
+    used = ["body", "alpha", "beta"] + (["fiducial"] if posts else [])
     colliding = ["beta"] + (["alpha"] if collide_alpha else []) \
-        + (["fiducial"] if layout.n_fiducials else [])
+        + (["fiducial"] if posts else [])
     vis_mesh = {n: _add_mesh(s, f"{n}_visual", geometry.links[n].visual, mesh_files) for n in used}
     col_mesh = {n: [_add_mesh(s, f"{n}_collision_{k}", piece, mesh_files)
                     for k, piece in enumerate(geometry.links[n].collision)]
@@ -87,9 +224,14 @@ def add_grid(s: mujoco.MjSpec, spec: RobotSpec, layout: Layout, geometry: RobotG
     a_mass, a_com, a_full = _inertial(geometry.links["alpha"].visual, p.density_kg_mm3)
     b_mass, b_com, b_full = _inertial(geometry.links["beta"].visual, p.density_kg_mm3)
     j_beta = servo.armature_kg_mm2 + _axis_inertia(b_mass, b_com, b_full)
-    j_alpha = servo.armature_kg_mm2 + _axis_inertia(a_mass, a_com, a_full) \
-        + _axis_inertia(b_mass, b_com, b_full, (-spec.alpha_length_mm, 0.0))
-    gains = {"alpha": servo.gains(j_alpha), "beta": servo.gains(j_beta)}
+
+    def alpha_gains(l_alpha: float) -> tuple[float, float]:
+        return servo.gains(servo.armature_kg_mm2 + _axis_inertia(a_mass, a_com, a_full)
+                           + _axis_inertia(b_mass, b_com, b_full, (-l_alpha, 0.0)))
+
+    nominal_la = float(geometry.link_offset("beta")[0])
+    gains = {"alpha": {nominal_la: alpha_gains(spec.alpha_length_mm)},
+             "beta": servo.gains(j_beta)}
     torque = servo.torque_limit_mNm * MNM
     alpha = _MovingLink("alpha", list(geometry.link_offset("alpha")), (a_mass, a_com, a_full),
                         list(np.radians(spec.alpha_limits_deg)), vis_mesh["alpha"],
@@ -100,39 +242,64 @@ def add_grid(s: mujoco.MjSpec, spec: RobotSpec, layout: Layout, geometry: RobotG
                        col_mesh["beta"], BIT_BETA, BIT_BETA)
     world = s.worldbody
 
-    for rid, (x, y) in zip(layout.robot_ids, layout.robot_xy):
+    for k, (rid, (x, y)) in enumerate(zip(layout.robot_ids, layout.robot_xy)):
         rid = int(rid)
-        base = world.add_body(name=robot_name(rid), pos=[float(x), float(y), base_z])
+        la = float(frames.alpha_len[k])
+        base = world.add_body(name=robot_name(rid), pos=[float(x), float(y),
+                                                         base_z + float(frames.z[k])])
+        if frames.tilted[k]:
+            base.quat = list(frames.quat[k])
         base.add_geom(default=vis, name=robot_name(rid, "body"), meshname=vis_mesh["body"],
                       material="body")
         alpha_body = _add_moving_link(base, rid, alpha, servo.armature_kg_mm2, vis, col)
-        beta_body = _add_moving_link(alpha_body, rid, beta, servo.armature_kg_mm2, vis, col)
-        for fname, fx, fy in p.fibers:
+        beta_body = _add_moving_link(alpha_body, rid, beta, servo.armature_kg_mm2, vis, col,
+                                     pos=[la, *beta.pos[1:]])
+        for c, (fname, _, _) in enumerate(p.fibers):
+            fx, fy = (float(v) for v in frames.fibers[k, c])
+            if math.isnan(fx):
+                continue                        # this robot does not carry that fiber
             beta_body.add_site(name=robot_name(rid, fname), pos=[fx, fy, p.beta_height_mm],
                                type=mujoco.mjtGeom.mjGEOM_CYLINDER,
                                size=[p.fiber_radius_mm, 0.02, 0.0],
                                rgba=list(FIBER_RGBA.get(fname, DEFAULT_FIBER_RGBA)))
+        if la not in gains["alpha"]:
+            gains["alpha"][la] = alpha_gains(la)
         for axis in ("alpha", "beta"):
-            kp, kv = gains[axis]
+            kp, kv = gains["alpha"][la] if axis == "alpha" else gains["beta"]
             act = s.add_actuator(name=robot_name(rid, axis), target=robot_name(rid, axis),
                                  trntype=mujoco.mjtTrn.mjTRN_JOINT)
             act.set_to_position(kp=kp, kv=kv)
             act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
             act.forcerange = [-torque, torque]
 
-    for fid, (x, y) in zip(layout.fiducial_ids, layout.fiducial_xy):
-        fb = world.add_body(name=fiducial_name(int(fid)), pos=[float(x), float(y), base_z])
-        fb.add_geom(default=vis, name=f"{fiducial_name(int(fid))}_visual",
-                    meshname=vis_mesh["fiducial"], material="fiducial")
+    for f, fid in enumerate(layout.fiducial_ids):
+        name = fiducial_name(int(fid))
+        x, y = (float(v) for v in obstacles.a[f])
+        fb = world.add_body(name=name, pos=[x, y, base_z + float(obstacles.z[f])])
+        if obstacles.segment[f]:
+            _add_wall(fb, name, *obstacles.slab_box(f), vis, col)
+            continue
+        fb.add_geom(default=vis, name=f"{name}_visual", meshname=vis_mesh["fiducial"],
+                    material="fiducial")
         for k, mname in enumerate(col_mesh["fiducial"]):
-            fb.add_geom(default=col, name=f"{fiducial_name(int(fid))}_c{k}", meshname=mname,
+            fb.add_geom(default=col, name=f"{name}_c{k}", meshname=mname,
                         contype=0, conaffinity=BIT_ALPHA | BIT_BETA)
 
 
-def _add_moving_link(parent, rid: int, link: _MovingLink, armature: float, vis, col):
-    """Robot ``rid``'s alpha or beta body under ``parent``: inertial, hinge about z, visual
-    geom and collision geoms. Returns the body."""
-    body = parent.add_body(name=robot_name(rid, link.name), pos=link.pos)
+def _add_wall(body, name: str, centre, half, quat, vis, col) -> None:
+    """A guide-camera wall: one box, visual and collision (beta arms only)."""
+    box = mujoco.mjtGeom.mjGEOM_BOX
+    for cls, suffix, extra in ((vis, "visual", {"material": "fiducial"}),
+                               (col, "c0", {"contype": 0, "conaffinity": BIT_BETA})):
+        body.add_geom(default=cls, name=f"{name}_{suffix}", type=box, size=list(half),
+                      pos=list(centre), quat=list(quat), **extra)
+
+
+def _add_moving_link(parent, rid: int, link: _MovingLink, armature: float, vis, col,
+                     pos: list | None = None):
+    """Robot ``rid``'s alpha or beta body under ``parent`` (at ``pos`` mm, default
+    ``link.pos``): inertial, hinge about z, visual geom and collision geoms. Returns the body."""
+    body = parent.add_body(name=robot_name(rid, link.name), pos=link.pos if pos is None else pos)
     mass, com, full = link.inertial
     body.explicitinertial = True
     body.mass = mass

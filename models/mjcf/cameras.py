@@ -13,6 +13,7 @@ import numpy as np
 
 from rfp_twin.models.geometry import GeometryParams
 from rfp_twin.models.layout import Layout
+from rfp_twin.models.layout.columns import robot_column
 from rfp_twin.models.robot import RobotSpec
 
 
@@ -81,7 +82,8 @@ def add_scene(s: mujoco.MjSpec, spec: RobotSpec, layout: Layout, p: GeometryPara
                      fovy=fovy)
     k_close = _closeup_index(layout, closeup_robot, centre)
     cx, cy = layout.robot_xy[k_close]
-    c_pos, c_quat = closeup_pose(np.array([cx, cy, base_z]), spec)
+    cz = base_z + float(robot_column(layout, "z_mm", 0.0)[k_close])    # its own base height
+    c_pos, c_quat = closeup_pose(np.array([cx, cy, cz]), spec)
     world.add_camera(name="closeup", pos=list(c_pos), quat=list(c_quat), fovy=fovy)
     s.visual.global_.offwidth = 1280
     s.visual.global_.offheight = 720

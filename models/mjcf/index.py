@@ -26,7 +26,8 @@ class ModelIndex:
     alpha_joint, beta_joint : (n,) joint ids
     qpos_adr : (n, 2) qpos addresses of (alpha, beta); dof_adr : (n, 2) dof addresses
     actuator : (n, 2) actuator ids of (alpha, beta)
-    fiber_site : (n, k) site ids of the fibers, columns in ``fiber_names`` order
+    fiber_site : (n, k) site ids of the fibers, columns in ``fiber_names`` order; -1 where
+        the robot does not carry that fiber (a calibrated instrument: no site)
     fiber_names : tuple of k str
     geom_robot : (ngeom,) robot index owning each geom, -1 for none
     geom_fiducial : (ngeom,) fiducial index owning each geom, -1 for none
@@ -76,6 +77,9 @@ class ModelIndex:
                 raise KeyError(name)
             return i
 
+        def site(name):
+            return mujoco.mj_name2id(m, obj.mjOBJ_SITE, name)   # -1: fiber not carried
+
         body = lambda n: ident(obj.mjOBJ_BODY, n)  # noqa: E731
         joint = lambda n: ident(obj.mjOBJ_JOINT, n)  # noqa: E731
         aj = np.array([joint(robot_name(r, "alpha")) for r in ids], dtype=np.int64)
@@ -104,7 +108,7 @@ class ModelIndex:
             actuator=np.array([[ident(obj.mjOBJ_ACTUATOR, robot_name(r, "alpha")),
                                 ident(obj.mjOBJ_ACTUATOR, robot_name(r, "beta"))] for r in ids],
                               dtype=np.int64).reshape(-1, 2),
-            fiber_site=np.array([[ident(obj.mjOBJ_SITE, robot_name(r, f)) for f in fiber_names]
+            fiber_site=np.array([[site(robot_name(r, f)) for f in fiber_names]
                                  for r in ids], dtype=np.int64).reshape(ids.size, len(fiber_names)),
             fiber_names=tuple(fiber_names),
             geom_robot=robot_of_body[geom_body],

@@ -28,7 +28,8 @@ class TwinModel:
     mjspec : mujoco.MjSpec (the spec it was compiled from)
     index : ModelIndex
     spec : RobotSpec; layout : Layout; geometry : RobotGeometry; options : ModelOptions
-    base_z_mm : float, world z of every robot frame (top face of the fixed bodies)
+    base_z_mm : float, world z of the nominal robot frame (top face of the fixed bodies); a
+        robot with a ``z_mm`` layout column stands that much higher
     """
 
     model: mujoco.MjModel
@@ -68,20 +69,35 @@ class TwinModel:
         return np.degrees(d.qpos[self.index.qpos_adr])
 
     def fiber_xyz(self, d: mujoco.MjData) -> np.ndarray:
-        """(n, k, 3) world positions of the fiber tips, mm (after mj_forward/mj_step)."""
-        return d.site_xpos[self.index.fiber_site]
+        """(n, k, 3) world positions of the fiber tips, mm (after mj_forward/mj_step); NaN
+        where a robot does not carry that fiber."""
+        sites = self.index.fiber_site
+        xyz = d.site_xpos[sites]
+        if (sites < 0).any():
+            xyz[sites < 0] = np.nan
+        return xyz
 
     def neighbour_pairs(self) -> np.ndarray:
         """(p, 2) robot index pairs whose parts can touch (bases within twice the reach
-        of the largest moving piece)."""
-        reach = max(self.geometry.beta_reach_mm(), self.geometry.alpha_reach_mm())
+        of the largest moving piece: with the longest alpha arm of the model and, for tilted
+        robots, the sideways shift of the highest point of a tilted robot)."""
+        m = self.model
+        longest = float(m.body_pos[self.index.beta_body, 0].max())
+        extra = max(0.0, longest - float(self.geometry.link_offset("beta")[0]))
+        reach = max(self.geometry.beta_reach_mm() + extra, self.geometry.alpha_reach_mm())
+        w = m.body_quat[self.index.base_body]
+        sin_tilt = float(np.max(2.0 * np.hypot(w[:, 1], w[:, 2]) * np.abs(w[:, 0]))) \
+            if len(w) else 0.0
+        if sin_tilt > 0.0:
+            reach += sin_tilt * self.geometry.params.fiber_z_mm
         return self.layout.neighbour_pairs(2.0 * reach)
 
     def aim_closeup(self, robot_id: int, distance_mm: float | None = None) -> None:
         """Point the ``closeup`` camera at one robot (oblique view from the south-west)."""
         k = self.layout.robot_index(robot_id)
         x, y = self.layout.robot_xy[k]
-        pos, quat = closeup_pose(np.array([x, y, self.base_z_mm]), self.spec, distance_mm)
+        z = float(self.model.body_pos[self.index.base_body[k], 2])   # base_z + its z_mm
+        pos, quat = closeup_pose(np.array([x, y, z]), self.spec, distance_mm)
         c = self.index.camera["closeup"]
         self.model.cam_pos[c] = pos
         self.model.cam_quat[c] = quat

@@ -18,7 +18,8 @@ from __future__ import annotations
 import numpy as np
 
 from rfp_twin.models.errors import TrajectoryError
-from rfp_twin.models.kinematics import forward
+from rfp_twin.models.kinematics import forward, forward_fiber
+from rfp_twin.models.layout.columns import FIBER_COLUMNS, FIBERS, robot_column, robot_fibers
 from rfp_twin.models.mjcf import TwinModel
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.sim.faults import fault_effects
@@ -117,9 +118,23 @@ class TrackingError:
 
 def fiber_error_mm(twin: TwinModel, angles_deg: np.ndarray, nominal_deg: np.ndarray) -> np.ndarray:
     """(n,) distance, mm, between the fiber at the true angles (n, 2) deg and at the
-    nominal angles (n, 2) deg (planar kinematics, :func:`rfp_twin.models.kinematics.forward`)."""
+    nominal angles (n, 2) deg (planar kinematics).
+
+    Nominal layouts: the paper's fiber at ``beta_length_mm`` on the spec's arms
+    (:func:`rfp_twin.models.kinematics.forward`). A layout with per-robot geometry (a
+    calibrated instrument): each robot's metrology fiber on its own alpha arm
+    (``alpha_len_mm``, ``met_x_mm, met_y_mm``; :func:`rfp_twin.models.kinematics.forward_fiber`).
+    """
     spec = twin.spec
     base = np.ascontiguousarray(twin.layout.robot_xy, dtype=np.float64)
+    lay = twin.layout
+    if any(c in lay.extra for c in ("alpha_len_mm", *FIBER_COLUMNS["metrology"])):
+        la = robot_column(lay, "alpha_len_mm", spec.alpha_length_mm)
+        fibers = robot_fibers(lay, {"metrology": (spec.beta_length_mm, 0.0)})
+        met = fibers[:, FIBERS.index("metrology")]
+        f_true = forward_fiber(base, np.asarray(angles_deg, dtype=np.float64), la, met)
+        f_ref = forward_fiber(base, np.asarray(nominal_deg, dtype=np.float64), la, met)
+        return np.hypot(*(f_true - f_ref).T)
     f_true, _ = forward(base, np.ascontiguousarray(angles_deg), spec.alpha_length_mm,
                         spec.beta_length_mm)
     f_ref, _ = forward(base, np.ascontiguousarray(nominal_deg), spec.alpha_length_mm,

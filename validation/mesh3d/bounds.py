@@ -23,6 +23,19 @@ decide.
 
 A link pose is ``(theta, x, y)``: world point ``= (x, y) + Rz(theta) p`` in the xy plane
 for ``p`` in the link frame (the z offset of a link kind is constant).
+
+Per-robot geometry (:mod:`rfp_twin.validation.mesh3d.scene`): the kernels' alpha-arm
+argument ``place`` is either a float (every robot's alpha arm; objects at height 0, exact
+poses: the nominal case) or a tuple ``(obj_la (n_obj,), obj_z0 (n_obj,), lp_slack (n_lp,
+2), obj_g (n_obj, 2))``. The links are posed upright in a frame where their true (tilted)
+points lie within ``s_xy`` (mm) horizontally of the posed ones, and vertically at
+``z0 + g . (x, y)`` (a plane over the frame's xy: the object's height and its tilt relative
+to the frame; ``(x, y)`` the posed point) from the posed height, within ``s_z`` (mm).
+:func:`piece_bound_at` lowers the xy distance by ``s_xy`` and takes each piece's z interval
+over its capsule's range of that plane, widened by ``s_z``: a lower bound still. It moves
+with the link, so a bound with a tilt ``g`` is Lipschitz with each link's speed times ``1
++ |g|`` (the scene scales the speeds). With zero planes and slacks every value is
+bit-identical to the float case.
 """
 from __future__ import annotations
 
@@ -30,12 +43,67 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.core import types
+from numba.extending import overload
 
 from rfp_twin.models.geometry import LINKS
 from rfp_twin.validation.numerics import clamp01, segment_distance
 
 #: Link kind codes used inside the kernels (index into :data:`rfp_twin.models.geometry.LINKS`).
 BODY, ALPHA, BETA, FIDUCIAL = (LINKS.index(n) for n in ("body", "alpha", "beta", "fiducial"))
+
+
+def obj_alpha(place, o):
+    """Alpha arm of object ``o``, mm: ``place`` (a float) or ``place[0][o]``."""
+    return place if isinstance(place, float) else place[0][o]
+
+
+def obj_plane(place, o):
+    """Height plane ``(z0, gx, gy)`` of object ``o`` (mm, 1, 1): zeros (``place`` a float)
+    or ``(place[1][o], place[3][o, 0], place[3][o, 1])``."""
+    if isinstance(place, float):
+        return 0.0, 0.0, 0.0
+    return place[1][o], place[3][o, 0], place[3][o, 1]
+
+
+def pair_slack(place, p):
+    """Slack ``(s_xy, s_z)`` of link pair ``p``, mm: zeros (``place`` a float) or
+    ``place[2][p]``."""
+    return (0.0, 0.0) if isinstance(place, float) else (place[2][p, 0], place[2][p, 1])
+
+
+@overload(obj_alpha)
+def _obj_alpha(place, o):
+    if isinstance(place, types.Float):
+        return lambda place, o: place
+    return lambda place, o: place[0][o]
+
+
+@overload(obj_plane)
+def _obj_plane(place, o):
+    if isinstance(place, types.Float):
+        return lambda place, o: (0.0, 0.0, 0.0)
+    return lambda place, o: (place[1][o], place[3][o, 0], place[3][o, 1])
+
+
+@njit(cache=True)
+def plane_range(plane, x0, y0, x1, y1, r):
+    """Range ``(lo, hi)`` of ``z0 + g . (x, y)`` (``plane = (z0, gx, gy)``) over the capsule
+    of segment (x0, y0)-(x1, y1) and radius r, mm; ``(z0, z0)`` for a flat plane."""
+    z0, gx, gy = plane
+    if gx == 0.0 and gy == 0.0:
+        return z0, z0
+    e0 = gx * x0 + gy * y0
+    e1 = gx * x1 + gy * y1
+    er = r * math.sqrt(gx * gx + gy * gy)
+    return z0 + min(e0, e1) - er, z0 + max(e0, e1) + er
+
+
+@overload(pair_slack)
+def _pair_slack(place, p):
+    if isinstance(place, types.Float):
+        return lambda place, p: (0.0, 0.0)
+    return lambda place, p: (place[2][p, 0], place[2][p, 1])
 
 
 @njit(cache=True)
@@ -147,7 +215,17 @@ def poly_lower_bound(u, v, ca, sa, xa, ya, cb, sb, xb, yb, pptr, pxy):
 
 @njit(cache=True)
 def piece_bound(u, v, tha, xa, ya, thb, xb, yb, cap, zlim, pptr, pxy, tight_below):
-    """Lower bound of the distance of pieces u (pose a) and v (pose b), mm.
+    """Lower bound of the distance of pieces u (pose a) and v (pose b), mm (links at
+    height 0, exact poses: :func:`piece_bound_at` with zero planes and slacks)."""
+    return piece_bound_at(u, v, tha, xa, ya, (0.0, 0.0, 0.0), thb, xb, yb, (0.0, 0.0, 0.0),
+                          0.0, 0.0, cap, zlim, pptr, pxy, tight_below)
+
+
+@njit(cache=True)
+def piece_bound_at(u, v, tha, xa, ya, plane_a, thb, xb, yb, plane_b, s_xy, s_z, cap, zlim, pptr,
+                   pxy, tight_below):
+    """Lower bound of the distance of pieces u (pose a, height plane ``plane_a``) and v
+    (pose b, ``plane_b``), mm, with slacks ``s_xy``, ``s_z`` (mm, see the module docstring).
 
     Capsule prisms first; where that is below ``tight_below`` the vertical prisms of
     the pieces' xy hulls (GJK lower bound) too, keeping the larger. Both are lower
@@ -165,15 +243,18 @@ def piece_bound(u, v, tha, xa, ya, thb, xb, yb, cap, zlim, pptr, pxy, tight_belo
     b0y = yb + sb * cap[v, 0] + cb * cap[v, 1]
     b1x = xb + cb * cap[v, 2] - sb * cap[v, 3]
     b1y = yb + sb * cap[v, 2] + cb * cap[v, 3]
-    dxy = segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - cap[u, 4] - cap[v, 4]
-    dz = max(0.0, zlim[u, 0] - zlim[v, 1], zlim[v, 0] - zlim[u, 1])
+    dxy = segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - cap[u, 4] - cap[v, 4] - s_xy
+    za0, za1 = plane_range(plane_a, a0x, a0y, a1x, a1y, cap[u, 4])
+    zb0, zb1 = plane_range(plane_b, b0x, b0y, b1x, b1y, cap[v, 4])
+    dz = max(0.0, (zlim[u, 0] + za0) - (zlim[v, 1] + zb1),
+             (zlim[v, 0] + zb0) - (zlim[u, 1] + za1)) - s_z
     if dz > 0.0:
         x = max(dxy, 0.0)
         out = math.sqrt(x * x + dz * dz)
     else:
         out = dxy
     if out < tight_below:
-        lp = poly_lower_bound(u, v, ca, sa, xa, ya, cb, sb, xb, yb, pptr, pxy)
+        lp = max(poly_lower_bound(u, v, ca, sa, xa, ya, cb, sb, xb, yb, pptr, pxy) - s_xy, 0.0)
         f = math.sqrt(lp * lp + dz * dz) if dz > 0.0 else lp
         if f > out:
             out = f
@@ -184,10 +265,19 @@ def piece_bound(u, v, tha, xa, ya, thb, xb, yb, cap, zlim, pptr, pxy, tight_belo
 def link_bound(ka, kb, tha, xa, ya, thb, xb, yb, kptr, cap, zlim, pptr, pxy, tight_below):
     """Lower bound C of the distance of link kind ka (pose a) and kb (pose b), mm: the
     minimum of :func:`piece_bound` over their piece pairs."""
+    return link_bound_at(ka, kb, tha, xa, ya, (0.0, 0.0, 0.0), thb, xb, yb, (0.0, 0.0, 0.0),
+                         0.0, 0.0, kptr, cap, zlim, pptr, pxy, tight_below)
+
+
+@njit(cache=True)
+def link_bound_at(ka, kb, tha, xa, ya, plane_a, thb, xb, yb, plane_b, s_xy, s_z, kptr, cap, zlim,
+                  pptr, pxy, tight_below):
+    """:func:`link_bound` of links with height planes and slacks (mm)."""
     best = np.inf
     for u in range(kptr[ka], kptr[ka + 1]):
         for v in range(kptr[kb], kptr[kb + 1]):
-            d = piece_bound(u, v, tha, xa, ya, thb, xb, yb, cap, zlim, pptr, pxy, tight_below)
+            d = piece_bound_at(u, v, tha, xa, ya, plane_a, thb, xb, yb, plane_b, s_xy, s_z, cap,
+                               zlim, pptr, pxy, tight_below)
             if d < best:
                 best = d
     return best
@@ -198,10 +288,18 @@ def store_pose_bounds(poses, bounds, k, ka, kb, tha, xa, ya, thb, xb, yb,
                       kptr, cap, zlim, pptr, pxy):
     """Row ``k`` of ``poses`` (both link poses) and of ``bounds`` (the capsule bound of
     every piece pair, row-major over (u, v)) for links ka (pose a) and kb (pose b)."""
+    store_pose_bounds_at(poses, bounds, k, ka, kb, tha, xa, ya, (0.0, 0.0, 0.0), thb, xb, yb,
+                         (0.0, 0.0, 0.0), 0.0, 0.0, kptr, cap, zlim, pptr, pxy)
+
+
+@njit(cache=True)
+def store_pose_bounds_at(poses, bounds, k, ka, kb, tha, xa, ya, plane_a, thb, xb, yb, plane_b,
+                         s_xy, s_z, kptr, cap, zlim, pptr, pxy):
+    """:func:`store_pose_bounds` of links with height planes and slacks (mm)."""
     poses[k] = (tha, xa, ya, thb, xb, yb)
     j = 0
     for u in range(kptr[ka], kptr[ka + 1]):
         for v in range(kptr[kb], kptr[kb + 1]):
-            bounds[k, j] = piece_bound(u, v, tha, xa, ya, thb, xb, yb, cap, zlim,
-                                       pptr, pxy, np.inf)
+            bounds[k, j] = piece_bound_at(u, v, tha, xa, ya, plane_a, thb, xb, yb, plane_b, s_xy,
+                                          s_z, cap, zlim, pptr, pxy, np.inf)
             j += 1

@@ -1,7 +1,10 @@
 """The broadphase of the 3D check over time: lower bounds ``C(t)`` per link pair (numba).
 
-Objects are the robots of the trajectory and the fiducials (``obj_rob[o]`` the robot
-index, ``-1`` for a fiducial; bases ``obj_x``, ``obj_y`` mm). A link pair ``p`` is link
+Objects are the robots of the trajectory and the obstacles (``obj_rob[o]`` the robot
+index, ``-1`` for an obstacle; bases ``obj_x``, ``obj_y`` mm), plus, with per-robot
+geometry, robots posed in the frame of a pair (:mod:`rfp_twin.validation.mesh3d.scene`).
+``la`` is every robot's alpha arm (a float) or the per-object placement tuple of
+:mod:`rfp_twin.validation.mesh3d.bounds`. A link pair ``p`` is link
 kind ``lp_ka[p]`` of object ``lp_oa[p]`` and ``lp_kb[p]`` of ``lp_ob[p]``. The
 trajectory comes as per-axis CSR arrays (:func:`rfp_twin.validation.numerics.axis_csr`; rad,
 rad/s), times in s.
@@ -17,8 +20,8 @@ time range). Jumps have no bound and are refused when the CSR arrays are built.
 *Lipschitz distance.* With ``V_A``, ``V_B`` those bounds, the distance between two
 moving point sets changes at most at ``L = V_A + V_B``: ``|D(t) - D(t')| <= L |t -
 t'|``. This holds for the exact distance ``D`` (any two sets) and for the bound ``C``
-(capsule segments and hull vertices move like link points, radii and z intervals are
-constant, ``sqrt(max(x, 0)^2 + dz^2)`` is 1-Lipschitz in ``x``, and max / min of
+(capsule segments and hull vertices move like link points, radii, z intervals and slacks
+are constant, ``sqrt(max(x, 0)^2 + dz^2)`` is 1-Lipschitz in ``x``, and max / min of
 Lipschitz functions are Lipschitz with the same constant).
 
 *Interval bound.* On ``[t0, t1]`` (``h = t1 - t0``) with samples ``F0``, ``F1`` of
@@ -40,7 +43,8 @@ import math
 import numpy as np
 from numba import njit
 
-from rfp_twin.validation.mesh3d.bounds import link_bound, pose, store_pose_bounds
+from rfp_twin.validation.mesh3d.bounds import (link_bound_at, obj_alpha, obj_plane, pair_slack,
+                                               pose, store_pose_bounds_at)
 from rfp_twin.validation.numerics import STACK, interp_angle, max_rate, push, push_halves
 
 #: Upper bound on coarse intervals per link pair.
@@ -49,14 +53,15 @@ MAX_COARSE = 1_000_000
 
 @njit(cache=True)
 def link_state(o, kind, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab):
-    """World pose ``(theta, x, y)`` of link ``kind`` of object ``o`` at time ``t``."""
+    """Pose ``(theta, x, y)`` of link ``kind`` of object ``o`` at time ``t`` (``la``: the
+    alpha arm(s), :mod:`rfp_twin.validation.mesh3d.bounds`)."""
     r = obj_rob[o]
     a = 0.0
     b = 0.0
     if r >= 0:
         a = interp_angle(pa, ta, aa, r, t)
         b = interp_angle(pb, tb, ab, r, t)
-    th, ox, oy = pose(kind, a, b, la)
+    th, ox, oy = pose(kind, a, b, obj_alpha(la, o))
     return th, obj_x[o] + ox, obj_y[o] + oy
 
 
@@ -66,9 +71,13 @@ def bound_at(p, t, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
     """Lower bound C of the distance of link pair p at time t, mm."""
     ka = lp_ka[p]
     kb = lp_kb[p]
-    tha, xa, ya = link_state(lp_oa[p], ka, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab)
-    thb, xb, yb = link_state(lp_ob[p], kb, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab)
-    return link_bound(ka, kb, tha, xa, ya, thb, xb, yb, kptr, cap, zlim, pptr, pxy, tight_below)
+    oa = lp_oa[p]
+    ob = lp_ob[p]
+    tha, xa, ya = link_state(oa, ka, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab)
+    thb, xb, yb = link_state(ob, kb, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab)
+    s_xy, s_z = pair_slack(la, p)
+    return link_bound_at(ka, kb, tha, xa, ya, obj_plane(la, oa), thb, xb, yb, obj_plane(la, ob),
+                         s_xy, s_z, kptr, cap, zlim, pptr, pxy, tight_below)
 
 
 @njit(cache=True)
@@ -256,10 +265,27 @@ def poses_and_bounds(qp, qt, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, 
         t = qt[k]
         ka = lp_ka[p]
         kb = lp_kb[p]
-        tha, xa, ya = link_state(lp_oa[p], ka, t, obj_rob, obj_x, obj_y, la,
-                                 pa, ta, aa, pb, tb, ab)
-        thb, xb, yb = link_state(lp_ob[p], kb, t, obj_rob, obj_x, obj_y, la,
-                                 pa, ta, aa, pb, tb, ab)
-        store_pose_bounds(poses, bounds, k, ka, kb, tha, xa, ya, thb, xb, yb,
-                          kptr, cap, zlim, pptr, pxy)
+        oa = lp_oa[p]
+        ob = lp_ob[p]
+        tha, xa, ya = link_state(oa, ka, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab)
+        thb, xb, yb = link_state(ob, kb, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab)
+        s_xy, s_z = pair_slack(la, p)
+        store_pose_bounds_at(poses, bounds, k, ka, kb, tha, xa, ya, obj_plane(la, oa),
+                             thb, xb, yb, obj_plane(la, ob), s_xy, s_z, kptr, cap, zlim, pptr, pxy)
     return poses, bounds
+
+
+@njit(cache=True)
+def query_angles(qp, qt, lp_oa, lp_ob, obj_rob, pa, ta, aa, pb, tb, ab):
+    """(n, 4) joint angles (alpha_a, beta_a, alpha_b, beta_b), rad, of the two objects of
+    link pair ``qp[k]`` at time ``qt[k]`` (zeros for an obstacle)."""
+    n = len(qp)
+    out = np.zeros((n, 4))
+    for k in range(n):
+        for side in range(2):
+            o = lp_oa[qp[k]] if side == 0 else lp_ob[qp[k]]
+            r = obj_rob[o]
+            if r >= 0:
+                out[k, 2 * side] = interp_angle(pa, ta, aa, r, qt[k])
+                out[k, 2 * side + 1] = interp_angle(pb, tb, ab, r, qt[k])
+    return out

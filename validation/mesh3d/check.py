@@ -38,6 +38,14 @@ Algorithm
    collide is reported as colliding throughout: a collision's ``[t_start, t_end]`` may
    contain a brief separation, never a missed contact.
 
+Per-robot geometry (layout columns, :func:`rfp_twin.validation.mesh3d.links.placement`):
+each robot's alpha arm, base height and axis (the whole robot tilted) place its links; a
+segment obstacle (a guide-camera edge) is a wall that beta arms are checked against
+(reported as ``kind`` ``"fiducial"``, link ``"gfa"``). The bounds of steps 1 and 3 are
+taken in a frame per pair with slacks for the tilts (:mod:`rfp_twin.validation.mesh3d.scene`);
+FCL (steps 2 and 4) uses the true world transforms. Nominal layouts give the same
+results, bit for bit, as without these columns.
+
 Colliding samples and colliding intervals of one link pair at most ``resolution_s``
 apart are merged into one :class:`Collision3D` (start / end accurate to
 ``resolution_s``). The report splits wall time into *broadphase* (candidate pairs,
@@ -58,9 +66,9 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import RobotSpec
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.validation.mesh3d.broadphase import (bound_at, capsule_min, capsule_suspects,
-                                          poses_and_bounds)
+                                                   poses_and_bounds, query_angles)
 from rfp_twin.validation.mesh3d.exact import ExactDistance
-from rfp_twin.validation.mesh3d.links import LinkModels
+from rfp_twin.validation.mesh3d.links import WALL, LinkModels
 from rfp_twin.validation.mesh3d.report import Check3DReport, Collision3D, PairDistance
 from rfp_twin.validation.mesh3d.scene import Scene
 from rfp_twin.validation.numerics import axis_csr, checked_float, time_span
@@ -92,7 +100,8 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
     spec : RobotSpec
         Used for the default geometry (:func:`rfp_twin.models.geometry.geometry_for_spec`).
     layout : Layout
-        Robot bases and fiducials (fiducials are checked against every robot).
+        Robot bases and obstacles (checked against every robot), with each robot's own
+        geometry where the layout has the columns.
     geometry : RobotGeometry or LinkModels, optional
         The meshes; build :class:`LinkModels` once to reuse them over many checks.
     min_gap_mm : float
@@ -140,6 +149,7 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
     report_progress = progress or (lambda stage, done, total: None)
 
     scene = Scene(traj, layout, models, thr)
+    models = scene.models                  # with the layout's guide-camera walls, if any
     t_lo, t_hi = time_span(traj)
     n_lp = scene.n_link_pairs
     if traj.n_robots:
@@ -153,10 +163,10 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
     vglob, vmean = scene.link_speeds(models, (pa, ta, ra), (pb, tb, rb), t_hi - t_lo)
 
     kern = (scene.lp_oa, scene.lp_ka, scene.lp_ob, scene.lp_kb, scene.obj_rob, scene.obj_x,
-            scene.obj_y, models.l_alpha)
+            scene.obj_y, scene.place)
     traj_a = (pa, ta, aa, ra, pb, tb, ab, rb)
     geo = (models.kind_ptr, models.cap, models.zlim, models.poly_ptr, models.poly_xy,
-           models.rad_alpha, models.rad_beta)
+           scene.rad_alpha, scene.rad_beta)
 
     # -- 1. capsule minimum per link pair ------------------------------------------
     report_progress("capsule bounds", 0, 2)
@@ -172,7 +182,7 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
 
     exact = ExactDistance(models)
     bnd_args = (scene.lp_oa, scene.lp_ka, scene.lp_ob, scene.lp_kb, scene.obj_rob,
-                scene.obj_x, scene.obj_y, models.l_alpha, pa, ta, aa, pb, tb, ab,
+                scene.obj_x, scene.obj_y, scene.place, pa, ta, aa, pb, tb, ab,
                 models.kind_ptr, models.cap, models.zlim, models.poly_ptr, models.poly_xy,
                 models.max_piece_pairs)
     n_groups = len(scene.groups)
@@ -183,14 +193,24 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
     hits: dict[int, list] = {}      # link pair -> [(t_start, t_end, d, t_d, conservative)]
 
     def eval_exact(qp: np.ndarray, qt: np.ndarray) -> np.ndarray:
-        poses, bounds = poses_and_bounds(np.asarray(qp, dtype=np.int64),
-                                         np.asarray(qt, dtype=np.float64), *bnd_args)
+        qp = np.asarray(qp, dtype=np.int64)
+        qt = np.asarray(qt, dtype=np.float64)
+        poses, bounds = poses_and_bounds(qp, qt, *bnd_args)
+        if scene.placed:       # FCL on the true (tilted) world transforms
+            ang = query_angles(qp, qt, scene.lp_oa, scene.lp_ob, scene.obj_rob,
+                               pa, ta, aa, pb, tb, ab)
+            rot_a, tr_a = scene.world_frames(scene.lp_oa[qp], scene.lp_ka[qp], ang[:, 0], ang[:, 1])
+            rot_b, tr_b = scene.world_frames(scene.lp_ob[qp], scene.lp_kb[qp], ang[:, 2], ang[:, 3])
         out = np.empty(len(qp))
         for k in range(len(qp)):
             p = int(qp[k])
             ka, kb = int(scene.lp_ka[p]), int(scene.lp_kb[p])
-            d = exact.distance(ka, poses[k, :3], models.offset_z[ka], kb, poses[k, 3:],
-                               models.offset_z[kb], bounds[k])
+            if scene.placed:
+                d = exact.distance_between(ka, rot_a[k], tr_a[k], kb, rot_b[k], tr_b[k],
+                                           bounds[k])
+            else:
+                d = exact.distance(ka, poses[k, :3], models.offset_z[ka], kb, poses[k, 3:],
+                                   models.offset_z[kb], bounds[k])
             out[k] = d
             if d < lp_best[p]:
                 lp_best[p] = d
@@ -263,16 +283,18 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
     collisions = _merge_hits(hits, scene, res)
     pairs = []
     kind_min: dict[str, float] = {}
+    names = models.kind_names
     for g in range(n_groups):
         kind, a_id, b_id = scene.pair_ids(g)
         p = int(best_lp[g])
-        links = (LINKS[int(scene.lp_ka[p])], LINKS[int(scene.lp_kb[p])]) if p >= 0 else ("", "")
+        links = (names[int(scene.lp_ka[p])], names[int(scene.lp_kb[p])]) if p >= 0 else ("", "")
         pairs.append(PairDistance(kind, (a_id, b_id), links, float(best[g]), float(best_t[g])))
     # per link-kind pair: smallest exact distance evaluated, and the capsule lower bound
     kind_lb: dict[str, float] = {}
+    order = (*LINKS, WALL)
     for p in range(n_lp):
-        key = "-".join(sorted((LINKS[int(scene.lp_ka[p])], LINKS[int(scene.lp_kb[p])]),
-                              key=LINKS.index))
+        key = "-".join(sorted((names[int(scene.lp_ka[p])], names[int(scene.lp_kb[p])]),
+                              key=order.index))
         kind_min[key] = min(kind_min.get(key, math.inf), float(lp_best[p]))
         kind_lb[key] = min(kind_lb.get(key, math.inf), float(cmin[p]))
     pairs.sort(key=lambda x: (x.min_distance_mm, x.kind, x.ids))
@@ -348,7 +370,8 @@ def _merge_hits(hits: dict, scene: Scene, res: float) -> list[Collision3D]:
                 runs.append([ts, te, d, td, cons])
         g = int(scene.lp_group[p])
         kind, a_id, b_id = scene.pair_ids(g)
-        la, lb = LINKS[int(scene.lp_ka[p])], LINKS[int(scene.lp_kb[p])]
+        la, lb = (scene.models.kind_names[int(scene.lp_ka[p])],
+                  scene.models.kind_names[int(scene.lp_kb[p])])
         for ts, te, d, td, cons in runs:
             out.append(Collision3D(kind, a_id, la, b_id, lb, ts, te, td, d, cons))
     out.sort(key=lambda c: (c.t_start, c.kind, c.robot_a, c.other, c.link_a, c.link_b))

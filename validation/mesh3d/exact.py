@@ -29,6 +29,43 @@ def _transform(pose, z: float) -> fcl.Transform:
     return fcl.Transform(rot, np.array([pose[1], pose[2], z]))
 
 
+class _PoseFrame:
+    """A link posed upright: ``(theta, x, y)`` at height ``z`` (mm)."""
+
+    def __init__(self, pose, z: float):
+        self.pose, self.z = pose, z
+
+    def transform(self) -> fcl.Transform:
+        return _transform(self.pose, self.z)
+
+    def to_world(self, p):
+        c, s = math.cos(self.pose[0]), math.sin(self.pose[0])
+        return np.array([self.pose[1] + c * p[0] - s * p[1], self.pose[2] + s * p[0] + c * p[1],
+                         self.z + p[2]])
+
+    def to_local(self, w):
+        c, s = math.cos(self.pose[0]), math.sin(self.pose[0])
+        dx, dy = w[0] - self.pose[1], w[1] - self.pose[2]
+        return np.array([c * dx + s * dy, -s * dx + c * dy, w[2] - self.z])
+
+
+class _MatrixFrame:
+    """A link posed anyhow: world point ``= t + R p`` (R (3, 3), t (3,) mm)."""
+
+    def __init__(self, rot, trans):
+        self.rot = np.asarray(rot, dtype=np.float64)
+        self.trans = np.asarray(trans, dtype=np.float64)
+
+    def transform(self) -> fcl.Transform:
+        return fcl.Transform(self.rot, self.trans)
+
+    def to_world(self, p):
+        return self.trans + self.rot @ p
+
+    def to_local(self, w):
+        return self.rot.T @ (np.asarray(w) - self.trans)
+
+
 class ExactDistance:
     """Exact solid distance of two posed links with FCL, pruned by capsule bounds.
 
@@ -56,6 +93,19 @@ class ExactDistance:
                  bounds: np.ndarray) -> float:
         """Exact distance, mm. ``pose_*`` = (theta, x, y); ``z*`` the link frame z;
         ``bounds`` the piece-pair capsule bounds, row-major over (u, v)."""
+        return self.distance_frames(ka, _PoseFrame(pose_a, za), kb, _PoseFrame(pose_b, zb),
+                                    bounds)
+
+    def distance_between(self, ka: int, rot_a, trans_a, kb: int, rot_b, trans_b,
+                         bounds: np.ndarray) -> float:
+        """:meth:`distance` of links posed by world transforms ``(R (3, 3), t (3,))``
+        (tilted robots; ``bounds`` lower bounds of the piece-pair distances)."""
+        return self.distance_frames(ka, _MatrixFrame(rot_a, trans_a), kb,
+                                    _MatrixFrame(rot_b, trans_b), bounds)
+
+    def distance_frames(self, ka: int, frame_a, kb: int, frame_b, bounds: np.ndarray) -> float:
+        """Exact distance, mm, of link kind ka posed by ``frame_a`` and kb by ``frame_b``
+        (:class:`_PoseFrame` or :class:`_MatrixFrame`)."""
         clock = time.perf_counter()
         u0, v0, nb, npp = self._pieces(ka, kb)
         bounds = bounds[:npp]
@@ -70,7 +120,7 @@ class ExactDistance:
                 break
             u, v = u0 + int(j) // nb, v0 + int(j) % nb
             if tf_a is None:
-                tf_a, tf_b = _transform(pose_a, za), _transform(pose_b, zb)
+                tf_a, tf_b = frame_a.transform(), frame_b.transform()
             oa, ob = self.objs[0][u], self.objs[1][v]
             if u not in set_a:
                 oa.setTransform(tf_a)
@@ -82,7 +132,7 @@ class ExactDistance:
             self.n_calls += 1
             if d < 0.0:
                 d = 0.0
-            if d > 0.0 and bnd <= CONTAIN_SLACK and self._contained(u, pose_a, za, v, pose_b, zb):
+            if d > 0.0 and bnd <= CONTAIN_SLACK and self._contained(u, frame_a, v, frame_b):
                 d = 0.0
             if d < best:
                 best = d
@@ -116,7 +166,7 @@ class ExactDistance:
             else:
                 hit = fcl.collide(oa, ob, self._creq, fcl.CollisionResult()) > 0
             if not hit and float(bounds[j]) <= CONTAIN_SLACK:
-                hit = self._contained(u, pose_a, za, v, pose_b, zb)
+                hit = self._contained(u, _PoseFrame(pose_a, za), v, _PoseFrame(pose_b, zb))
             if hit:
                 break
         self.n_evals += 1
@@ -130,24 +180,12 @@ class ExactDistance:
         nb = int(m.kind_ptr[kb + 1]) - v0
         return u0, v0, nb, (int(m.kind_ptr[ka + 1]) - u0) * nb
 
-    def _contained(self, u, pose_a, za, v, pose_b, zb) -> bool:
+    def _contained(self, u, frame_a, v, frame_b) -> bool:
         """One piece inside the other (no surface crossing): a vertex of u in hull v, or
         a vertex of v in hull u."""
         m = self.m
-
-        def to_world(p, pose, z):
-            c, s = math.cos(pose[0]), math.sin(pose[0])
-            return np.array([pose[1] + c * p[0] - s * p[1], pose[2] + s * p[0] + c * p[1],
-                             z + p[2]])
-
-        def to_local(w, pose, z):
-            c, s = math.cos(pose[0]), math.sin(pose[0])
-            dx, dy = w[0] - pose[1], w[1] - pose[2]
-            return np.array([c * dx + s * dy, -s * dx + c * dy, w[2] - z])
-
-        for (x, px, zx), (y, py, zy) in (((u, pose_a, za), (v, pose_b, zb)),
-                                         ((v, pose_b, zb), (u, pose_a, za))):
-            q = to_local(to_world(m.probe[x], px, zx), py, zy)
+        for (x, fx), (y, fy) in (((u, frame_a), (v, frame_b)), ((v, frame_b), (u, frame_a))):
+            q = fy.to_local(fx.to_world(m.probe[x]))
             eq = m.hull_eq[y]
             if np.all(eq[:, :3] @ q + eq[:, 3] <= 1e-9):
                 return True

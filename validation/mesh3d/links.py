@@ -17,18 +17,34 @@ segment ends) from the joint axis. For a convex piece the largest distance is re
 a vertex, so a point of the beta link moves at most ``|a'| (l_alpha + r_b) + |b'| r_b``,
 one of the alpha link at most ``|a'| r_a``; body and fiducial do not move. Units: mm,
 deg at the public boundary.
+
+Each robot's own geometry (:class:`Placement`, from the layout columns of
+:mod:`rfp_twin.models.layout.columns`): its alpha arm ``alpha_len_mm`` sets where its beta
+axis is (the alpha link's mesh stays the nominal one: it differs by at most 0.1 mm on the
+calibrated instruments), its base is ``z_mm`` higher and the whole robot is tilted by the
+smallest rotation ``R_k`` taking z to its axis ``(kx, ky, kz)``: a link's world transform
+is ``R_k Rz(theta)`` and ``base + R_k (local offset)`` (:func:`link_frames`), the MuJoCo
+model's body poses. Obstacles: a point (fiducial) is the fiducial post at its xy; a segment
+(a ``gfa`` row: a guide-camera chip edge) a wall along it (:func:`wall_mesh`, link kind
+``gfa``, the MuJoCo model's box: ``2 * fiducial_radius_mm`` thick, ``fiducial_radius_mm``
+past each end, over the beta link's z range widened by :data:`WALL_Z_MARGIN_MM`). An
+obstacle stands at the ``z_mm`` of the robot nearest to it (the layout has no obstacle
+heights; 0 on flat layouts).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import fcl
 import numpy as np
+import trimesh
 from scipy.spatial import ConvexHull
 
+from rfp_twin.models.errors import LayoutError
 from rfp_twin.models.geometry import LINKS, RobotGeometry
-from rfp_twin.validation.mesh3d.bounds import pose
+from rfp_twin.models.layout.columns import obstacle_arrays, robot_column
+from rfp_twin.validation.mesh3d.bounds import ALPHA, BETA, pose
 from rfp_twin.validation.numerics import POINT_EPS2, REACH_TOL_MM
 
 #: Links of a robot / of a fiducial, and their kind codes (index into ``LINKS``).
@@ -36,6 +52,14 @@ ROBOT_LINKS = ("body", "alpha", "beta")
 FIDUCIAL_LINKS = ("fiducial",)
 ROBOT_KINDS = tuple(LINKS.index(k) for k in ROBOT_LINKS)
 FIDUCIAL_KINDS = tuple(LINKS.index(k) for k in FIDUCIAL_LINKS)
+#: Name of the link kind of a guide-camera wall (kinds after the four of ``LINKS``).
+WALL = "gfa"
+#: Height added below and above the beta link's z range for a wall, mm (the MuJoCo model's
+#: estimate: a 2 deg tilt lifts or sinks a 24 mm arm's tip by 0.8 mm; the wok's height
+#: changes along a chip edge).
+WALL_Z_MARGIN_MM = 2.0
+#: Largest departure of a layout axis ``(kx, ky, kz)`` from unit length (it is normalised).
+AXIS_TOL = 1e-3
 
 
 def fit_capsule(points_xy: np.ndarray, n_radii: int = 24) -> tuple[np.ndarray, float]:
@@ -91,6 +115,35 @@ def _points_to_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarra
     return np.hypot(*(p - (a + t[:, None] * d)).T)
 
 
+def _piece(piece, oz: float) -> dict:
+    """Capsule, z interval (shifted by ``oz`` mm), largest xy radius, FCL model, hull
+    half-spaces, probe vertex and xy hull of one convex piece."""
+    v = np.asarray(piece.vertices, dtype=np.float64)
+    seg, rad = fit_capsule(v[:, :2])
+    xy = v[:, :2]
+    try:
+        poly = xy[ConvexHull(xy).vertices]
+    except Exception:  # noqa: BLE001 (degenerate projection: a segment)
+        poly = xy[[int(np.argmin(xy @ (seg[1] - seg[0]))), int(np.argmax(xy @ (seg[1] - seg[0])))]]
+    return {"cap": [seg[0, 0], seg[0, 1], seg[1, 0], seg[1, 1], rad],
+            "zlim": [float(v[:, 2].min()) + oz, float(v[:, 2].max()) + oz],
+            "rmax": max(float(np.hypot(v[:, 0], v[:, 1]).max()),
+                        float(np.hypot(seg[:, 0], seg[:, 1]).max())),
+            "bvh": _bvh(piece), "eq": np.ascontiguousarray(ConvexHull(v).equations),
+            "probe": v[0], "poly": poly}
+
+
+def _piece_fields(pieces: list) -> dict:
+    """The per-piece fields of :class:`LinkModels` from :func:`_piece` dicts."""
+    polys = [pc["poly"] for pc in pieces]
+    return {"cap": np.asarray([pc["cap"] for pc in pieces], dtype=np.float64),
+            "zlim": np.asarray([pc["zlim"] for pc in pieces], dtype=np.float64),
+            "bvh": [pc["bvh"] for pc in pieces], "hull_eq": [pc["eq"] for pc in pieces],
+            "probe": np.asarray([pc["probe"] for pc in pieces], dtype=np.float64),
+            "poly_ptr": np.concatenate([[0], np.cumsum([len(q) for q in polys])]).astype(np.int64),
+            "poly_xy": np.ascontiguousarray(np.vstack(polys), dtype=np.float64)}
+
+
 def _bvh(mesh) -> fcl.BVHModel:
     model = fcl.BVHModel()
     model.beginModel(len(mesh.vertices), len(mesh.faces))
@@ -104,26 +157,28 @@ def _bvh(mesh) -> fcl.BVHModel:
 class LinkModels:
     """Everything the 3D check needs about the links of one robot design.
 
-    Built once per geometry (:meth:`from_geometry`); all robots share it.
+    Built once per geometry (:meth:`from_geometry`); all robots share it. A check on a
+    layout with guide-camera walls adds one link kind per wall (:meth:`with_walls`), so
+    the per-kind arrays have K = 4 + walls rows.
 
     Attributes
     ----------
     geometry : RobotGeometry
-    kind_ptr : (5,) int64
-        Pieces of link kind ``k`` (index into :data:`rfp_twin.models.geometry.LINKS`) are
+    kind_ptr : (K + 1,) int64
+        Pieces of link kind ``k`` (index into :attr:`kind_names`) are
         ``kind_ptr[k]:kind_ptr[k + 1]``.
     cap : (P, 5) float64
         Capsule of each piece in its link frame: ``x0, y0, x1, y1, radius``, mm.
     zlim : (P, 2) float64
         z interval of each piece in the robot frame, mm.
-    rad_alpha, rad_beta : (4,) float64
+    rad_alpha, rad_beta : (K,) float64
         Per link kind, the point speed is at most ``rad_alpha |a'| + rad_beta |b'|``
         (rad/s in, mm/s out).
-    reach : (4,) float64
+    reach : (K,) float64
         Largest xy distance of a link point from the alpha axis over all angles, mm.
-    zrange : (4, 2) float64
+    zrange : (K, 2) float64
         z interval of each link kind in the robot frame, mm.
-    offset_z : (4,) float64
+    offset_z : (K,) float64
         z of each link frame in the robot frame, mm.
     l_alpha : float
         Alpha axis to beta axis, mm.
@@ -131,9 +186,11 @@ class LinkModels:
     hull_eq : list of (m, 4) float64, per piece: ``n . x + d <= 0`` inside (link frame)
     probe : (P, 3) float64
         One vertex of each piece (link frame), for the containment test.
-    poly_ptr : (P + 1,) int64; poly_xy : (K, 2) float64
+    poly_ptr : (P + 1,) int64; poly_xy : (V, 2) float64
         Convex hull of each piece's vertices projected on the link's xy plane (CCW),
         CSR: piece ``u`` is ``poly_xy[poly_ptr[u]:poly_ptr[u + 1]]``, mm.
+    kind_names : tuple of K str
+        :data:`rfp_twin.models.geometry.LINKS`, then :data:`WALL` per wall.
     """
 
     geometry: RobotGeometry
@@ -151,13 +208,14 @@ class LinkModels:
     probe: np.ndarray
     poly_ptr: np.ndarray
     poly_xy: np.ndarray
+    kind_names: tuple = LINKS
 
     @classmethod
     def from_geometry(cls, geometry: RobotGeometry) -> LinkModels:
         """Capsules, speed radii and FCL models of every collision piece."""
         la = float(geometry.spec.alpha_length_mm)
         kind_ptr = [0]
-        caps, zlims, bvhs, eqs, probes, polys = [], [], [], [], [], []
+        pieces_out = []
         rad_a, rad_b = np.zeros(4), np.zeros(4)
         reach, zr, offz = np.zeros(4), np.zeros((4, 2)), np.zeros(4)
         for k, name in enumerate(LINKS):
@@ -165,29 +223,12 @@ class LinkModels:
             if name == "beta":
                 oz = float(geometry.link_offset("alpha")[2] + geometry.link_offset("beta")[2])
             offz[k] = oz
-            pieces = geometry.links[name].collision
-            rmax = 0.0
-            zlo, zhi = np.inf, -np.inf
-            for piece in pieces:
-                v = np.asarray(piece.vertices, dtype=np.float64)
-                seg, rad = fit_capsule(v[:, :2])
-                caps.append([seg[0, 0], seg[0, 1], seg[1, 0], seg[1, 1], rad])
-                z0, z1 = float(v[:, 2].min()) + oz, float(v[:, 2].max()) + oz
-                zlims.append([z0, z1])
-                zlo, zhi = min(zlo, z0), max(zhi, z1)
-                rmax = max(rmax, float(np.hypot(v[:, 0], v[:, 1]).max()),
-                           float(np.hypot(seg[:, 0], seg[:, 1]).max()))
-                bvhs.append(_bvh(piece))
-                eqs.append(np.ascontiguousarray(ConvexHull(v).equations))
-                probes.append(v[0])
-                xy = v[:, :2]
-                try:
-                    polys.append(xy[ConvexHull(xy).vertices])
-                except Exception:  # noqa: BLE001 (degenerate projection: a segment)
-                    polys.append(xy[[int(np.argmin(xy @ (seg[1] - seg[0]))),
-                                     int(np.argmax(xy @ (seg[1] - seg[0])))]])
+            pieces = [_piece(piece, oz) for piece in geometry.links[name].collision]
+            pieces_out += pieces
+            rmax = max([pc["rmax"] for pc in pieces], default=0.0)
+            zr[k] = (min([pc["zlim"][0] for pc in pieces], default=np.inf),
+                     max([pc["zlim"][1] for pc in pieces], default=-np.inf))
             kind_ptr.append(kind_ptr[-1] + len(pieces))
-            zr[k] = (zlo, zhi)
             if name == "alpha":
                 rad_a[k], reach[k] = rmax, rmax
             elif name == "beta":
@@ -195,12 +236,28 @@ class LinkModels:
             else:
                 reach[k] = rmax
         return cls(geometry=geometry, kind_ptr=np.asarray(kind_ptr, dtype=np.int64),
-                   cap=np.asarray(caps, dtype=np.float64), zlim=np.asarray(zlims, dtype=np.float64),
                    rad_alpha=rad_a, rad_beta=rad_b, reach=reach, zrange=zr, offset_z=offz,
-                   l_alpha=la, bvh=bvhs, hull_eq=eqs, probe=np.asarray(probes, dtype=np.float64),
-                   poly_ptr=np.concatenate([[0], np.cumsum([len(q) for q in polys])])
-                   .astype(np.int64),
-                   poly_xy=np.ascontiguousarray(np.vstack(polys), dtype=np.float64))
+                   l_alpha=la, **_piece_fields(pieces_out))
+
+    def with_walls(self, meshes) -> LinkModels:
+        """A copy with one more link kind (named :data:`WALL`) per wall mesh (one convex
+        piece each, in its obstacle's frame: origin at the obstacle's base, z as the robot
+        frames); ``self`` when there is none."""
+        if not len(meshes):
+            return self
+        pieces = [_piece(m, 0.0) for m in meshes]
+        n = len(pieces)
+        old = [{"cap": self.cap[u], "zlim": self.zlim[u], "bvh": self.bvh[u], "eq": self.hull_eq[u],
+                "probe": self.probe[u], "poly": self.poly_xy[self.poly_ptr[u]:self.poly_ptr[u + 1]]}
+               for u in range(len(self.cap))]
+        return replace(
+            self, kind_ptr=np.concatenate([self.kind_ptr, self.kind_ptr[-1] + 1 + np.arange(n)]),
+            rad_alpha=np.concatenate([self.rad_alpha, np.zeros(n)]),
+            rad_beta=np.concatenate([self.rad_beta, np.zeros(n)]),
+            reach=np.concatenate([self.reach, [pc["rmax"] for pc in pieces]]),
+            zrange=np.vstack([self.zrange, [pc["zlim"] for pc in pieces]]),
+            offset_z=np.concatenate([self.offset_z, np.zeros(n)]),
+            kind_names=tuple(self.kind_names) + (WALL,) * n, **_piece_fields(old + pieces))
 
     def n_pieces(self, kind: int) -> int:
         return int(self.kind_ptr[kind + 1] - self.kind_ptr[kind])
@@ -208,7 +265,7 @@ class LinkModels:
     @property
     def max_piece_pairs(self) -> int:
         """Most piece pairs two links can have (the width of a piece-pair bound row)."""
-        return int(max(self.n_pieces(k) for k in range(len(LINKS))) ** 2)
+        return int(max(self.n_pieces(k) for k in range(len(self.kind_ptr) - 1)) ** 2)
 
     def can_touch(self, kind_a: int, kind_b: int, base_distance_mm: float,
                   min_gap_mm: float = 0.0) -> bool:
@@ -236,3 +293,125 @@ def link_pose(models: LinkModels, kind: int, base_xy, alpha_deg: float,
     """
     th, ox, oy = pose(kind, math.radians(alpha_deg), math.radians(beta_deg), models.l_alpha)
     return np.array([th, base_xy[0] + ox, base_xy[1] + oy, models.offset_z[kind]])
+
+
+def axis_rotation(k) -> np.ndarray:
+    """(3, 3) the smallest rotation taking +z to the unit vector ``k`` (3,) (Rodrigues
+    about ``z x k``); the identity, exactly, for ``k = (0, 0, 1)``."""
+    kx, ky, kz = (float(v) for v in k)
+    if kx == 0.0 and ky == 0.0:
+        return np.eye(3)
+    vx = np.array([[0.0, 0.0, kx], [0.0, 0.0, ky], [-kx, -ky, 0.0]])   # [z x k]_x
+    return np.eye(3) + vx + vx @ vx / (1.0 + kz)
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Each robot's and obstacle's own placement, layout order (mm).
+
+    alpha_len : (n,) float64, alpha axis to beta axis
+    base : (n, 3) float64, robot frame origin: layout x, y and ``z_mm``
+    rot : (n, 3, 3) float64, ``R_k`` (:func:`axis_rotation`); ``tilted`` (n,) bool where it
+        is not the identity
+    obs_a, obs_b : (m, 2) float64, obstacle ends (equal for a point)
+    obs_z : (m,) float64, obstacle heights (the nearest robot's ``z_mm``)
+    """
+
+    alpha_len: np.ndarray
+    base: np.ndarray
+    rot: np.ndarray
+    tilted: np.ndarray
+    obs_a: np.ndarray
+    obs_b: np.ndarray
+    obs_z: np.ndarray
+
+    @property
+    def wall(self) -> np.ndarray:
+        """(m,) bool, True for a segment obstacle (a wall)."""
+        return np.any(self.obs_a != self.obs_b, axis=1)
+
+
+def placement(layout, models: LinkModels) -> Placement | None:
+    """:class:`Placement` of a layout's robots and obstacles; None when every robot is the
+    nominal one (spec alpha arm, height 0, axis +z) and every obstacle a point at height 0.
+
+    Raises
+    ------
+    LayoutError
+        An axis ``(kx, ky, kz)`` that is not a unit vector (within :data:`AXIS_TOL`).
+    """
+    la = robot_column(layout, "alpha_len_mm", models.l_alpha)
+    z = robot_column(layout, "z_mm", 0.0)
+    k = np.column_stack([robot_column(layout, c, d) for c, d in (("kx", 0.0), ("ky", 0.0),
+                                                                 ("kz", 1.0))])
+    norm = np.sqrt((k * k).sum(axis=1))
+    bad = np.flatnonzero(np.abs(norm - 1.0) > AXIS_TOL)
+    if bad.size:
+        r = int(bad[0])
+        raise LayoutError(f"{layout.name}: robot {int(layout.robot_ids[r])} fields 'kx, ky, kz' "
+                          f"= {k[r].tolist()} (length {norm[r]:.6f}); allowed: a unit vector "
+                          f"(within {AXIS_TOL}) or blank")
+    rot = np.array([axis_rotation(k[r] / norm[r]) for r in range(len(k))]).reshape(-1, 3, 3)
+    tilted = (k[:, 0] != 0.0) | (k[:, 1] != 0.0)
+    a, b, _ = obstacle_arrays(models.geometry.spec, layout)
+    oz = np.zeros(len(a))
+    if len(a) and len(z) and np.any(z != 0.0):
+        d2 = ((((a + b) / 2.0)[:, None, :] - layout.robot_xy[None]) ** 2).sum(axis=2)
+        oz = z[np.argmin(d2, axis=1)]
+    out = Placement(la, np.column_stack([layout.robot_xy, z]).reshape(-1, 3), rot, tilted, a, b,
+                    oz)
+    if np.all(la == models.l_alpha) and not tilted.any() and not z.any() and not oz.any() \
+            and not out.wall.any():
+        return None
+    return out
+
+
+def wall_mesh(a, b, half_width: float, z_range) -> trimesh.Trimesh:
+    """The wall along segment ``a``-``b`` (2,) mm as a box mesh in its obstacle frame
+    (origin at ``a``): ``2 half_width`` thick, ``half_width`` past each end, z over
+    ``z_range`` (2,) mm."""
+    d = np.asarray(b, dtype=np.float64) - np.asarray(a, dtype=np.float64)
+    length = float(np.hypot(d[0], d[1]))
+    yaw = math.atan2(d[1], d[0])
+    c, s = math.cos(yaw), math.sin(yaw)
+    tf = np.eye(4)
+    tf[:2, :2] = [[c, -s], [s, c]]
+    tf[:3, 3] = [d[0] / 2.0, d[1] / 2.0, (z_range[0] + z_range[1]) / 2.0]
+    return trimesh.creation.box(extents=[length + 2.0 * half_width, 2.0 * half_width,
+                                         z_range[1] - z_range[0]], transform=tf)
+
+
+def link_frames(models: LinkModels, kinds, base, rot, l_alpha, alpha_rad,
+                beta_rad) -> tuple[np.ndarray, np.ndarray]:
+    """World transforms of links: rotation ``R_k Rz(theta)`` (n, 3, 3) and translation
+    ``base + R_k (x, y, offset_z)`` (n, 3), mm, of link kinds ``kinds`` (n,) of objects with
+    frame origins ``base`` (n, 3), axes ``rot`` (n, 3, 3), alpha arms ``l_alpha`` (n,) at
+    joint angles ``alpha_rad``, ``beta_rad`` (n,) rad
+    (:func:`rfp_twin.validation.mesh3d.bounds.pose`)."""
+    kinds = np.asarray(kinds, dtype=np.int64).reshape(-1)
+    a = np.asarray(alpha_rad, dtype=np.float64).reshape(-1)
+    b = np.asarray(beta_rad, dtype=np.float64).reshape(-1)
+    la = np.broadcast_to(np.asarray(l_alpha, dtype=np.float64), a.shape)
+    th = np.where(kinds == ALPHA, a, np.where(kinds == BETA, a + b, 0.0))
+    local = np.zeros((len(kinds), 3))
+    beta = kinds == BETA
+    local[beta, 0] = la[beta] * np.cos(a[beta])
+    local[beta, 1] = la[beta] * np.sin(a[beta])
+    local[:, 2] = models.offset_z[kinds]
+    rz = np.zeros((len(kinds), 3, 3))
+    c, s = np.cos(th), np.sin(th)
+    rz[:, 0, 0], rz[:, 0, 1], rz[:, 1, 0], rz[:, 1, 1], rz[:, 2, 2] = c, -s, s, c, 1.0
+    rot = np.asarray(rot, dtype=np.float64).reshape(-1, 3, 3)
+    return rot @ rz, np.asarray(base, dtype=np.float64).reshape(-1, 3) \
+        + np.einsum("nij,nj->ni", rot, local)
+
+
+def link_frame(models: LinkModels, kind: int, base_xyz, alpha_deg: float, beta_deg: float,
+               l_alpha: float | None = None, rot=None) -> tuple[np.ndarray, np.ndarray]:
+    """World transform ``(R (3, 3), t (3,))`` of one link (:func:`link_frames`): robot
+    frame origin ``base_xyz`` (3,) mm, axis rotation ``rot`` (default none), alpha arm
+    ``l_alpha`` mm (default the models')."""
+    r, t = link_frames(models, [kind], base_xyz, np.eye(3) if rot is None else rot,
+                       models.l_alpha if l_alpha is None else l_alpha,
+                       math.radians(alpha_deg), math.radians(beta_deg))
+    return r[0], t[0]

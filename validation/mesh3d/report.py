@@ -23,8 +23,9 @@ _COLUMNS = (("kind", "kind", "<9"), ("robot", "robot_a", ">7"), ("link", "link_a
 class Collision3D(PlainRecord):
     """One contiguous time interval in which two links are within ``min_gap_mm``.
 
-    Link ``link_a`` of robot ``robot_a`` and ``link_b`` of ``other`` (a robot, or a
-    fiducial when ``kind == "fiducial"``; ``"robot"`` otherwise), from ``t_start`` to
+    Link ``link_a`` of robot ``robot_a`` and ``link_b`` of ``other`` (a robot, or an
+    obstacle when ``kind == "fiducial"``: a fiducial post, ``link_b`` ``"fiducial"``, or a
+    guide-camera wall, ``link_b`` ``"gfa"``; ``"robot"`` otherwise), from ``t_start`` to
     ``t_end`` (s: the first and last colliding sample, or the ends of a conservative
     interval).
 
