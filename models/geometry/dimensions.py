@@ -19,9 +19,18 @@ A positioner has four kinds of rigid parts ("links"), each in its own frame (mm,
 ``fiducial``
     A fixed cylinder from the bottom of the fixed bodies up to the focal surface.
 
-The fiber tips lie on the top face of the beta bar, which is the focal surface
-(``focal_z_mm`` in the wok frame; the model is flat). Lengths in mm, fibers as
-``(name, x_mm, y_mm)`` in the beta frame.
+``beta_shape`` chooses the beta arm: ``"bar"`` (default) is the estimate bar above;
+``"p1"`` is the published P1 prototype (:mod:`rfp_twin.models.geometry.p1`), a tube of
+sphere-swept segments rising to a head block 30 mm above the beta frame origin (P1's
+z = 0 is placed at the beta frame origin: our reading, the published model gives no
+height of its base). With ``"p1"`` the bar, tip and ferrule keys are not used for the
+arm's shape (they stay in the table; the ferrule is not built: the fibers sit in the
+head).
+
+The fiber tips lie on the focal surface (``focal_z_mm`` in the wok frame; the model is
+flat): on the top face of the beta bar, or on the axis of the P1 head
+(:attr:`GeometryParams.fiber_height_mm`). Lengths in mm, fibers as ``(name, x_mm, y_mm)``
+in the beta frame.
 """
 from __future__ import annotations
 
@@ -29,12 +38,15 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from rfp_twin.models.geometry.p1 import P1_END_X_MM, P1_HEAD_Z_MM
 from rfp_twin.models.robot import RobotSpec
 
 #: Link names, in tree order.
 LINKS = ("body", "alpha", "beta", "fiducial")
 #: Links that move (have a joint).
 MOVING_LINKS = ("alpha", "beta")
+#: Values of ``beta_shape``: the estimate bar, the published P1 prototype tube.
+BETA_SHAPES = ("bar", "p1")
 
 #: SDSS-V defaults, mm (deg where stated). Source of each number in the comment:
 #: "coordio/kaiju" = SDSS-V's coordinate package coordio (defaults) and production
@@ -62,6 +74,7 @@ SDSS_V_DEFAULTS: dict[str, Any] = {
     "fiducial_radius_mm": 1.0,      # estimate: inside the 1.5 mm fiducial keep-out disk
     "plate_thickness_mm": 5.0,      # estimate: visual only
     "focal_z_mm": 143.1,            # coordio/kaiju: focal surface in the wok frame
+    "beta_shape": "bar",            # estimate bar; "p1": the published P1 prototype tube
     "circle_sections": 32,          # facets per full circle of the procedural meshes
     "collision_slabs": 8,           # slabs of a CAD link without given collision pieces
     "density_kg_mm3": 2.7e-6,       # estimate: aluminium, for link masses
@@ -78,7 +91,8 @@ class GeometryParams:
     One field per key of the ``[geometry]`` table; defaults are SDSS-V
     (:data:`SDSS_V_DEFAULTS`, sources there). ``fibers`` is a tuple of
     ``(name, x_mm, y_mm)`` in the beta frame. ``meshes`` maps a link to a CAD file,
-    ``collision`` a link to a tuple of convex-piece files.
+    ``collision`` a link to a tuple of convex-piece files. ``beta_shape`` is one of
+    :data:`BETA_SHAPES`.
     """
 
     beta_half_width_mm: float
@@ -108,6 +122,7 @@ class GeometryParams:
     fibers: tuple[tuple[str, float, float], ...]
     meshes: dict[str, str] = field(default_factory=dict)
     collision: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    beta_shape: str = "bar"
     source: str = field(default="<memory>", compare=False)
 
     # -- derived -------------------------------------------------------------
@@ -117,9 +132,23 @@ class GeometryParams:
         return self.alpha_z_mm + self.alpha_height_mm
 
     @property
+    def fiber_height_mm(self) -> float:
+        """Fiber tips above the beta frame origin: the top of the bar, or the axis of the
+        P1 head (30 mm, :data:`rfp_twin.models.geometry.p1.P1_HEAD_Z_MM`)."""
+        return P1_HEAD_Z_MM if self.beta_shape == "p1" else self.beta_height_mm
+
+    @property
     def fiber_z_mm(self) -> float:
-        """Fiber tips (top of the beta bar) in the robot frame: the focal surface."""
-        return self.beta_z_mm + self.beta_height_mm
+        """Fiber tips in the robot frame: the focal surface (also the top of the
+        fiducial posts)."""
+        return self.beta_z_mm + self.fiber_height_mm
+
+    @property
+    def beta_end_mm(self) -> float:
+        """End of the beta arm's axis along x: :attr:`head_centre_mm` for the bar, the
+        polyline's last point (14.7 mm) for P1. Default segment end of
+        :meth:`rfp_twin.models.geometry.RobotGeometry.beta_envelope_mm`."""
+        return P1_END_X_MM if self.beta_shape == "p1" else self.head_centre_mm
 
     @property
     def head_centre_mm(self) -> float:

@@ -1,6 +1,7 @@
 """The ``[geometry]`` table of a preset, parsed and checked into :class:`GeometryParams`.
 
-Keys are flat lengths in mm (see :mod:`rfp_twin.models.geometry.dimensions`), ``fibers = [{name,
+Keys are flat lengths in mm (see :mod:`rfp_twin.models.geometry.dimensions`), ``beta_shape =
+"bar" | "p1"`` (the estimate bar, or the published P1 prototype tube), ``fibers = [{name,
 x, y}, ...]`` in the beta frame, and two optional sub-tables: ``[geometry.meshes]``
 (``body``/``alpha``/``beta``/``fiducial`` = path of an STL or OBJ file replacing that
 link's visual mesh) and ``[geometry.collision]`` (link = list of convex-piece files).
@@ -16,7 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from rfp_twin.models.errors import SpecError
-from rfp_twin.models.geometry.dimensions import LINKS, GeometryParams, default_params
+from rfp_twin.models.geometry.dimensions import BETA_SHAPES, LINKS, GeometryParams, default_params
+from rfp_twin.models.geometry.p1 import P1_BETA_ARM, p1_plan_distance
 from rfp_twin.models.geometry.shapes import beta_outline
 from rfp_twin.models.robot import RobotSpec
 
@@ -51,6 +53,11 @@ def params_from_tables(tables: dict, spec: RobotSpec, source: str = "<memory>",
             continue
         if key == "fibers":
             values[key] = _parse_fibers(value, where)
+        elif key == "beta_shape":
+            if not isinstance(value, str) or value not in BETA_SHAPES:
+                raise SpecError(f"{where}: field 'beta_shape' = {value!r}; allowed: "
+                                f"{', '.join(repr(v) for v in BETA_SHAPES)}")
+            values[key] = value
         elif key in _INT_KEYS:
             if isinstance(value, bool) or not isinstance(value, int) or not 3 <= value <= 1024:
                 raise SpecError(f"{where}: field '{key}' = {value!r}; allowed: an integer in [3, 1024]")
@@ -141,6 +148,16 @@ def validate_params(p: GeometryParams, spec: RobotSpec) -> None:
     need(p.beta_z_mm - p.ferrule_drop_mm > p.alpha_top_mm, "ferrule_drop_mm", p.ferrule_drop_mm,
          f"< beta_z_mm - alpha top ({p.beta_z_mm - p.alpha_top_mm:.3f}): the ferrule hangs "
          "above the alpha arms")
+    need(p.beta_shape in BETA_SHAPES, "beta_shape", p.beta_shape,
+         ", ".join(repr(v) for v in BETA_SHAPES))
+    if p.beta_shape == "p1":
+        # the fibers sit on the axis of the P1 head: inside its planar footprint there
+        head_r = P1_BETA_ARM[-2][2]
+        for name, x, y in p.fibers:
+            need(p1_plan_distance(x, y) <= head_r, f"fibers.{name}", (x, y),
+                 f"a fiber position in the P1 head (within {head_r} mm of its axis, "
+                 f"x {P1_BETA_ARM[-2][0]}..{P1_BETA_ARM[-1][0]} mm)")
+        return
     fx, fy, fr = p.ferrule_x_mm, p.ferrule_y_mm, p.ferrule_radius_mm
     need(_point_in_outline(beta_outline(p), fx, fy, fr), "ferrule_radius_mm", fr,
          "a ferrule disk inside the beta bar outline (x, y, radius)")

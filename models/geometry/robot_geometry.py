@@ -10,6 +10,8 @@ centre ``beta_tip_mm - sqrt(hw^2 - tip_hw^2)`` (14.73 mm for SDSS-V). Pieces are
 and a capsule is convex, so the whole pieces are inside. A 2D plan checked with buffer
 >= 1.5 mm on a segment reaching >= 14.73 mm therefore keeps the 3D beta arms apart.
 :meth:`RobotGeometry.beta_envelope_mm` measures this for any geometry (also user CAD).
+The P1 prototype tube (``beta_shape = "p1"``) is much wider: its base sphere has a
+radius of 3.44 mm and its head reaches 14.7 + 2.61 mm from the beta axis.
 """
 from __future__ import annotations
 
@@ -104,15 +106,17 @@ class RobotGeometry:
         return out
 
     def fiber_positions(self) -> dict[str, tuple[float, float, float]]:
-        """Fiber tips in the beta frame (x, y, z) mm: on the top face of the bar."""
-        z = self.params.beta_height_mm
+        """Fiber tips in the beta frame (x, y, z) mm: on the top face of the bar, or on
+        the axis of the P1 head (:attr:`GeometryParams.fiber_height_mm`)."""
+        z = self.params.fiber_height_mm
         return {n: (x, y, z) for n, x, y in self.params.fibers}
 
     def beta_envelope_mm(self, seg_start_mm: float = 0.0, seg_end_mm: float | None = None) -> float:
         """Largest planar distance of the beta collision pieces from the segment
         ``[seg_start, seg_end]`` on the beta x axis, mm: the smallest 2D buffer whose
-        capsule holds the real arm. Default end: :attr:`GeometryParams.head_centre_mm`."""
-        end = self.params.head_centre_mm if seg_end_mm is None else float(seg_end_mm)
+        capsule holds the real arm. Default end: :attr:`GeometryParams.beta_end_mm` (the
+        head centre of the bar, the end of the P1 polyline)."""
+        end = self.params.beta_end_mm if seg_end_mm is None else float(seg_end_mm)
         pts = self._plan_points("beta")
         t = np.clip(pts[:, 0], seg_start_mm, end)
         return float(np.max(np.hypot(pts[:, 0] - t, pts[:, 1])))

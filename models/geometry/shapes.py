@@ -4,7 +4,8 @@ Outlines are ``(k, 2)`` float64 mm, convex and counter-clockwise; meshes are wat
 ``trimesh.Trimesh`` in the link frame (mm, z up; frames in
 :mod:`rfp_twin.models.geometry.dimensions`). The procedural collision pieces are exact: the beta
 bar outline (capsule cut by the flat tip) is convex, so it is one piece; post and
-ferrule are cylinders.
+ferrule are cylinders. With ``beta_shape = "p1"`` the beta link is the P1 tube, one
+capsule per polyline segment (:mod:`rfp_twin.models.geometry.p1`), and the post.
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import trimesh
 from scipy.spatial import ConvexHull
 
 from rfp_twin.models.geometry.dimensions import GeometryParams
+from rfp_twin.models.geometry.p1 import P1_BETA_ARM, p1_pieces
 from rfp_twin.models.robot import RobotSpec
 
 
@@ -78,16 +80,24 @@ def alpha_outline(p: GeometryParams, l_alpha: float) -> np.ndarray:
 
 
 def procedural_pieces(p: GeometryParams, spec: RobotSpec) -> dict[str, list[trimesh.Trimesh]]:
-    """Convex pieces of every link in its own frame."""
+    """Convex pieces of every link in its own frame.
+
+    Beta link: the bar, the post and the ferrule; or (``beta_shape = "p1"``) the 12 P1
+    tube capsules and the post, which rises from the alpha arm's top to the tube's first
+    point (inside its base sphere)."""
     n = p.circle_sections
-    gap = p.beta_z_mm - p.alpha_top_mm            # between alpha top and beta bar bottom
+    gap = p.beta_z_mm - p.alpha_top_mm            # between alpha top and beta frame origin
+    if p.beta_shape == "p1":
+        beta = [*p1_pieces(n), cylinder(0.0, 0.0, p.post_radius_mm, -gap, P1_BETA_ARM[0][1], n)]
+    else:
+        beta = [prism(beta_outline(p), 0.0, p.beta_height_mm),
+                cylinder(0.0, 0.0, p.post_radius_mm, -gap, 0.0, n),
+                cylinder(p.ferrule_x_mm, p.ferrule_y_mm, p.ferrule_radius_mm,
+                         -p.ferrule_drop_mm, 0.0, n)]
     return {
         "body": [cylinder(0.0, 0.0, p.body_radius_mm, -p.body_length_mm, 0.0, n)],
         "alpha": [prism(alpha_outline(p, spec.alpha_length_mm), 0.0, p.alpha_height_mm)],
-        "beta": [prism(beta_outline(p), 0.0, p.beta_height_mm),
-                 cylinder(0.0, 0.0, p.post_radius_mm, -gap, 0.0, n),
-                 cylinder(p.ferrule_x_mm, p.ferrule_y_mm, p.ferrule_radius_mm,
-                          -p.ferrule_drop_mm, 0.0, n)],
+        "beta": beta,
         "fiducial": [cylinder(0.0, 0.0, p.fiducial_radius_mm, -p.body_length_mm,
                               p.fiber_z_mm, n)],
     }

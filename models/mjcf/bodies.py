@@ -258,7 +258,7 @@ def add_grid(s: mujoco.MjSpec, spec: RobotSpec, layout: Layout, geometry: RobotG
             fx, fy = (float(v) for v in frames.fibers[k, c])
             if math.isnan(fx):
                 continue                        # this robot does not carry that fiber
-            beta_body.add_site(name=robot_name(rid, fname), pos=[fx, fy, p.beta_height_mm],
+            beta_body.add_site(name=robot_name(rid, fname), pos=[fx, fy, p.fiber_height_mm],
                                type=mujoco.mjtGeom.mjGEOM_CYLINDER,
                                size=[p.fiber_radius_mm, 0.02, 0.0],
                                rgba=list(FIBER_RGBA.get(fname, DEFAULT_FIBER_RGBA)))

@@ -7,9 +7,13 @@ Commands
 validate RUN_DIR [--geometry FILE]
     Check the run's trajectory against the 3D collision meshes (FCL); writes
     ``RUN_DIR/validation.json``; exit 4 on any 3D collision.
-calibrate-buffer --preset sdss-v --out DIR
+calibrate-buffer --preset sdss-v --out DIR [--instrument sdss-v-apo]
     Calibrate the 2D collision buffer against the 3D meshes; writes
     ``DIR/buffer_calibration.md``, ``DIR/calibration.json`` and PNG figures.
+calibrate-buffer --preset sdss-v --compare sdss-v sdss-v-p1 --out DIR
+    The same for several geometries and the 2D capsule model side by side: writes
+    ``DIR/buffer_comparison.md``, ``DIR/comparison.json``, figures and one full report
+    per column.
 
 Exit codes (:mod:`rfp_twin.twin.cli.console`): 0 clear, 2 bad input (one-line message naming the
 field / file and what is allowed), 4 collision.
@@ -19,7 +23,7 @@ from __future__ import annotations
 import json
 import time
 from pathlib import Path
-from typing import Optional
+from typing import List, Optional
 
 import typer
 
@@ -94,11 +98,24 @@ def validate(
 
 @one_line_errors
 def calibrate_buffer(
+    more: Optional[List[str]] = typer.Argument(
+        None, metavar="[GEOMETRY]...", show_default=False,
+        help="More geometries for --compare (so that `--compare sdss-v sdss-v-p1` works)."),
     preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
     out: Path = typer.Option(..., help="Folder for the report and figures."),
     geometry: Optional[str] = typer.Option(
         None, "--geometry", help="Robot TOML (or preset) whose [geometry] table gives the "
         "meshes [default: the preset's]."),
+    compare: Optional[List[str]] = typer.Option(
+        None, "--compare", help="Calibrate these geometries (presets / TOML files, e.g. "
+        "`--compare sdss-v sdss-v-p1`; repeatable, or comma-separated) and the 2D capsule "
+        "model side by side, against the 2D model of --preset."),
+    capsule_radius: Optional[float] = typer.Option(
+        None, help="Radius of the 2D capsule model column of --compare, mm [default: the "
+        "preset's beta_half_width_mm, 1.5 for SDSS-V (Sayres 2021 Sect. 3.3)]."),
+    instrument: Optional[str] = typer.Option(
+        None, help="Add the metrology spread of a real instrument to the Monte Carlo: "
+        "sdss-v-apo | sdss-v-lco | a calibration folder."),
     layout: Optional[str] = typer.Option(
         None, help="Layout giving pitch and neighbour directions: sdss-v-fps | sdss-v-547 | "
         "hex:N | CSV [default: hex directions at the preset's pitch]."),
@@ -115,14 +132,27 @@ def calibrate_buffer(
     """Calibrate the 2D collision buffer against the 3D meshes (markdown + figures).
 
     Smallest buffer for which 2D-safe implies 3D-safe, space wasted by the 2D model per
-    buffer, and a Monte Carlo over angular errors."""
+    buffer, and a Monte Carlo over angular errors (with --instrument, also over a real
+    instrument's metrology spread). With --compare, several geometries and the 2D
+    capsule model side by side in one report."""
     from rfp_twin.models.geometry import load_geometry
     from rfp_twin.models.robot import load_spec
     from rfp_twin.validation.buffer import calibrate_buffer as run_calibration
-    from rfp_twin.validation.buffer import write_report
+    from rfp_twin.validation.buffer import (compare_buffers, describe_geometry, write_comparison,
+                                            write_report)
+    from rfp_twin.validation.buffer.comparison import stage_fraction
 
+    names = [n.strip() for v in (compare or []) for n in v.split(",") if n.strip()]
+    if more and not compare:
+        raise field_error(SpecError, "GEOMETRY", list(more), "extra geometries only after "
+                          "--compare (e.g. --compare sdss-v sdss-v-p1)")
+    names += list(more or [])
+    if compare is not None and not names:
+        raise field_error(SpecError, "--compare", list(compare), "one or more geometries")
+    if names and geometry is not None:
+        raise field_error(SpecError, "--geometry", geometry, "no --geometry with --compare "
+                          "(list every geometry after --compare)")
     spec = load_spec(preset)
-    geom = load_geometry(geometry if geometry is not None else preset, spec)
     lay = None
     if layout is not None:
         from rfp_twin.models.layout import layout_by_name
@@ -132,22 +162,41 @@ def calibrate_buffer(
             spec.angular_error_deg[1] if beta_error is None else beta_error)
     if out.exists() and not out.is_dir():
         raise field_error(SpecError, "--out", str(out), "a folder (new or existing)")
-    stages = {"uniform samples": (0.0, 0.1), "boundary": (0.1, 0.2), "monte carlo": (0.2, 0.95)}
+    kw = dict(n_samples=samples, n_draws=draws, probability=probability,
+              angular_error_deg=errs, seed=seed)
     clock = time.perf_counter()
-    with progress_bar("calibrating") as progress:
-        task = progress.add_task(spec.name, total=1.0)
+    if names:
+        geoms = [(describe_geometry(n, g), g) for n in names
+                 for g in [load_geometry(n, spec)]]
+        radius = (capsule_radius if capsule_radius is not None
+                  else load_geometry(preset, spec).params.beta_half_width_mm)
+        with progress_bar("calibrating") as progress:
+            task = progress.add_task(spec.name, total=1.0)
 
-        def on_progress(stage: str, frac: float) -> None:
-            lo, hi = stages.get(stage, (0.95, 1.0))
-            progress.update(task, completed=lo + (hi - lo) * frac,
-                            description=f"{spec.name}: {stage}")
+            def on_compare(stage: str, frac: float) -> None:
+                progress.update(task, completed=0.97 * frac, description=stage)
 
-        cal = run_calibration(spec, geom, lay, n_samples=samples, n_draws=draws,
-                              probability=probability, angular_error_deg=errs, seed=seed,
-                              progress=on_progress)
-        progress.update(task, completed=0.97, description=f"{spec.name}: report")
-        paths = write_report(cal, out, command=command_line())
-    console.print(cal.table(), highlight=False)
+            comp = compare_buffers(spec, geoms, lay, capsule_radius_mm=radius,
+                                   instrument=instrument, progress=on_compare, **kw)
+            progress.update(task, completed=0.97, description=f"{spec.name}: report")
+            paths = write_comparison(comp, out, command=command_line())
+        console.print(comp.table(), highlight=False)
+    else:
+        geom = load_geometry(geometry if geometry is not None else preset, spec)
+        label = geometry if geometry is not None else str(geom.params.source)
+        with progress_bar("calibrating") as progress:
+            task = progress.add_task(spec.name, total=1.0)
+
+            def on_progress(stage: str, frac: float) -> None:
+                progress.update(task, completed=stage_fraction(stage, frac,
+                                                               instrument is not None),
+                                description=f"{spec.name}: {stage}")
+
+            cal = run_calibration(spec, geom, lay, instrument=instrument, label=label,
+                                  progress=on_progress, **kw)
+            progress.update(task, completed=0.97, description=f"{spec.name}: report")
+            paths = write_report(cal, out, command=command_line())
+        console.print(cal.table(), highlight=False)
     console.print(f"report: {paths['markdown']} ({time.perf_counter() - clock:.1f} s)",
                   highlight=False)
     for f in paths["figures"]:

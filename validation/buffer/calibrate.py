@@ -30,6 +30,15 @@ What is computed
     angular-error share of the buffer, set beside the paper's analytic ``sigma_eps =
     l_alpha ea + l_beta (ea + eb)`` (0.97 mm, Sayres et al. 2021, Eq. 12). The worst
     corner (every error at its bound, 16 sign combinations) is reported too.
+(d) *Metrology spread* (optional, ``instrument``): the same Monte Carlo with each draw's
+    angular errors (the same draws as (c)) plus the measured deviations of two robots of
+    a real instrument (:mod:`rfp_twin.validation.buffer.metrology`): ``b_p`` with the
+    spread, next to the angular-only one.
+
+The robot is the 3D meshes of a geometry (:class:`rfp_twin.validation.buffer.pairs.MeshPairs`)
+or, with ``capsule_radius_mm``, the 2D capsule model itself
+(:class:`rfp_twin.validation.buffer.pairs.CapsulePairs`: ``b* = r`` by construction, the
+reference for the other two parts).
 
 Randomness: every function takes a seed; same seed, same result.
 """
@@ -45,12 +54,14 @@ from rfp_twin.models.errors import SpecError, field_error
 from rfp_twin.models.geometry import RobotGeometry, geometry_for_spec
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import RobotSpec
+from rfp_twin.validation.buffer.metrology import MetrologySpread, perturbed_configurations
 from rfp_twin.validation.buffer.model2d import pair_segment_distances, required_buffer
-from rfp_twin.validation.buffer.montecarlo import ErrorBuffer, corner_errors, error_buffers
+from rfp_twin.validation.buffer.montecarlo import (ErrorBuffer, corner_errors, error_buffers,
+                                                   spread_buffers)
+from rfp_twin.validation.buffer.pairs import CapsulePairs, MeshPairs
 from rfp_twin.validation.buffer.report import BufferCalibration
 from rfp_twin.validation.buffer.sampling import (climb, distinct_top, neighbour_directions,
                                         uniform_configurations)
-from rfp_twin.validation.mesh3d import LinkModels, RobotPair
 
 #: Buffers at which the wasted space is tabulated by default, mm.
 DEFAULT_BUFFERS_MM = tuple(np.round(np.arange(1.0, 4.0001, 0.1), 3))
@@ -73,6 +84,8 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
                      buffers_mm=DEFAULT_BUFFERS_MM, angular_error_deg=None,
                      probability: float = 0.99, n_draws: int = 2000, seed: int = 0,
                      n_scatter: int = 3000, mc_starts: int = 3, mc_rounds: int = 20,
+                     instrument=None, capsule_radius_mm: float | None = None,
+                     label: str | None = None,
                      progress: Optional[Callable[[str, float], None]] = None
                      ) -> BufferCalibration:
     """Calibrate the 2D collision buffer against the 3D meshes (see the module docstring).
@@ -81,7 +94,8 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
     ----------
     spec : RobotSpec
     geometry : RobotGeometry, optional
-        Default :func:`rfp_twin.models.geometry.geometry_for_spec`.
+        Default :func:`rfp_twin.models.geometry.geometry_for_spec`. Not used with
+        ``capsule_radius_mm``.
     layout : Layout, optional
         Supplies the pitch and the neighbour directions (default a hex grid of the
         spec's pitch).
@@ -102,6 +116,13 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
     mc_starts, mc_rounds : int
         Per Monte Carlo draw, the local search's starts and rounds (0 rounds: the
         best candidate only). The 16 corners get 4x both.
+    instrument : str or MetrologySpread, optional
+        Part (d): ``sdss-v-apo``, ``sdss-v-lco`` or a calibration folder (deviations from
+        the spec's alpha arm and the geometry's metrology fiber x).
+    capsule_radius_mm : float, optional
+        Calibrate the 2D capsule model of this radius instead of meshes.
+    label : str, optional
+        Name of the robot in the report (default: the geometry's source).
     progress : callable(stage, fraction), optional
 
     Returns
@@ -111,7 +132,9 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
     Raises
     ------
     SpecError
-        A parameter out of range.
+        A parameter out of range; an instrument spread on robots whose links other than
+        the beta arms could touch (the spread is applied by moving the configuration,
+        exact for beta-beta contacts only).
     """
     clock = time.perf_counter()
     n_samples = _check(n_samples, "n_samples", 64, 1 << 24, integer=True)
@@ -133,28 +156,24 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
         raise field_error(SpecError, "buffers_mm", list(buffers_mm), "at least one buffer",
                           "calibrate_buffer")
     report = progress or (lambda stage, frac: None)
-    geometry = geometry if geometry is not None else geometry_for_spec(spec)
-    models = LinkModels.from_geometry(geometry)
     rng = np.random.default_rng(seed)
     seconds: dict[str, float] = {}
     hi_mm = float(spec.pitch_mm)
 
     pitch, dirs = neighbour_directions(layout, spec.pitch_mm)
     offs = pitch * np.column_stack([np.cos(np.radians(dirs)), np.sin(np.radians(dirs))])
-    pairs = [RobotPair(models, o) for o in offs]
-
-    def classify(ang: np.ndarray, dir_idx: np.ndarray) -> np.ndarray:
-        """3D collision (exact) per configuration."""
-        out = np.zeros(len(ang), dtype=bool)
-        for k, pr in enumerate(pairs):
-            sel = np.flatnonzero(dir_idx == k)
-            if sel.size == 0:
-                continue
-            lb = pr.bounds(ang[sel])
-            maybe = sel[lb <= 0.0]
-            if maybe.size:
-                out[maybe] = pr.collides(ang[maybe])
-        return out
+    if capsule_radius_mm is not None:
+        radius = _check(capsule_radius_mm, "capsule_radius_mm", 1e-6, spec.pitch_mm / 2.0)
+        pairs = CapsulePairs(spec, radius, offs)
+        name = label or f"2D capsule model, radius {radius:g} mm"
+        metrology_x = None
+    else:
+        geometry = geometry if geometry is not None else geometry_for_spec(spec)
+        pairs = MeshPairs(geometry, offs)
+        name = label or str(geometry.params.source)
+        metrology_x = next((x for n, x, _ in geometry.params.fibers if n == "metrology"), None)
+    spread = _spread(instrument, spec, metrology_x, pairs)
+    classify = pairs.classify
 
     def required(ang: np.ndarray, dir_idx: np.ndarray) -> np.ndarray:
         """Smallest buffer whose 2D model forbids each configuration, mm."""
@@ -237,13 +256,37 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
     b_p = float(np.quantile(samples, probability, method="higher"))
     seconds["monte_carlo"] = time.perf_counter() - t0
     report("monte carlo", 1.0)
+
+    # -- (d) metrology spread: the same angular draws plus two real robots each ----------
+    spread_out = {}
+    if spread is not None:
+        t0 = time.perf_counter()
+        report("metrology spread", 0.0)
+        srng = np.random.default_rng([seed, 1])     # own stream: (a)-(c) stay as without it
+        devs = spread.draw(srng, n_draws)
+        reach = shift + spread.max_displacement_mm()
+        cand_s = req_c >= b_star - 2.0 * reach - 0.05
+        la = float(spec.alpha_length_mm)
+        b_of_s = ErrorBuffer(required, classify, ang_c[cand_s], dir_c[cand_s], srng,
+                             actual=lambda a, d, dev: perturbed_configurations(a, dev, la,
+                                                                               offs[d]))
+        s_samples = spread_buffers(b_of_s, draws, devs, mc_starts, mc_rounds, report)
+        b_ps = float(np.quantile(s_samples, probability, method="higher"))
+        spread_out = dict(
+            instrument=spread.instrument, metrology=spread.summary(), spread_buffer_mm=b_ps,
+            spread_change_mm=b_ps - b_p, spread_samples_mm=s_samples.tolist(),
+            spread_quantiles={str(q): float(np.quantile(s_samples, q))
+                              for q in (0.5, 0.9, 0.99, 1.0)})
+        seconds["metrology_spread"] = time.perf_counter() - t0
+        report("metrology spread", 1.0)
+
     if wang is not None:
-        d3, links = pairs[wdir].distances(wang[None, :], with_links=True)
+        d3, links = pairs.contact(wang, wdir)
         worst = {"alpha_a": float(wang[0]), "beta_a": float(wang[1]), "alpha_b": float(wang[2]),
                  "beta_b": float(wang[3]), "direction_deg": float(dirs[wdir]),
                  "d2_mm": float(pair_segment_distances(spec, offs[wdir], wang[None, :],
                                                        b_star)[0]),
-                 "d3_mm": float(d3[0]), "links": "-".join(links[0]), "required_mm": b_star}
+                 "d3_mm": d3, "links": links, "required_mm": b_star}
     else:
         worst = {"alpha_a": math.nan, "beta_a": math.nan, "alpha_b": math.nan,
                  "beta_b": math.nan, "direction_deg": math.nan, "d2_mm": math.nan,
@@ -256,21 +299,17 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
     pick = (rng.choice(close, size=min(n_scatter, close.size), replace=False) if close.size
             else close)
     sc_d2 = d2_all[pick]
-    sc_d3 = np.empty(len(pick))
-    for k, pr in enumerate(pairs):
-        sel = np.flatnonzero(dir_u[pick] == k)
-        if sel.size:
-            sc_d3[sel] = pr.distances(ang_u[pick[sel]])
+    sc_d3 = pairs.distances(ang_u[pick], dir_u[pick])
     seconds["scatter"] = time.perf_counter() - t0
     seconds["total"] = time.perf_counter() - clock
 
     seg = (float(spec.segment_start_mm), float(spec.segment_end(spec.buffer_mm)))
     return BufferCalibration(
-        spec_name=spec.name, geometry=str(geometry.params.source), pitch_mm=pitch,
+        spec_name=spec.name, geometry=name, model=pairs.kind, pitch_mm=pitch,
         directions_deg=[float(d) for d in dirs], n_samples=n_samples, n_boundary=n_boundary,
         n_colliding=int(len(req_c)), seed=seed, safe_buffer_mm=b_star,
         safe_buffer_uniform_mm=b_uniform, worst=worst,
-        envelope_mm=float(geometry.beta_envelope_mm(*seg)),
+        envelope_mm=pairs.envelope_mm(seg),
         spec_buffer_mm=float(spec.buffer_mm), buffers_mm=[float(b) for b in buffers],
         forbidden_fraction=forb_frac, wasted_fraction=waste_frac,
         colliding_fraction=float(coll_u.mean()), angular_error_deg=(ea, eb),
@@ -281,4 +320,23 @@ def calibrate_buffer(spec: RobotSpec, geometry: RobotGeometry | None = None,
         mc_quantiles={str(q): float(np.quantile(samples, q)) for q in (0.5, 0.9, 0.99, 1.0)},
         scatter_d2_mm=sc_d2.tolist(), scatter_d3_mm=sc_d3.tolist(),
         mc_samples_mm=samples.tolist(), seconds=seconds,
-        n_fcl_calls=int(sum(p.n_fcl_calls for p in pairs)))
+        n_fcl_calls=pairs.n_fcl_calls, **spread_out)
+
+
+def _spread(instrument, spec: RobotSpec, metrology_x, pairs) -> MetrologySpread | None:
+    """The instrument's :class:`MetrologySpread` (None without one), checked usable: the
+    spread moves the configuration, which is exact only when beta arm to beta arm is the
+    only contact the moved robots can make."""
+    if instrument is None:
+        return None
+    if isinstance(instrument, MetrologySpread):
+        spread = instrument
+    else:
+        kw = {} if metrology_x is None else {"nominal_metrology_mm": float(metrology_x)}
+        spread = MetrologySpread.from_instrument(instrument, float(spec.alpha_length_mm), **kw)
+    other = pairs.other_contacts(2.0 * spread.max_displacement_mm())
+    if other:
+        raise field_error(SpecError, "instrument", spread.instrument,
+                          "robots whose only possible contact is beta arm to beta arm (these "
+                          f"links could touch too: {', '.join(other)})", "calibrate_buffer")
+    return spread

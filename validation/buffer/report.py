@@ -57,6 +57,18 @@ class BufferCalibration:
     seconds : dict
         Wall time per stage and in total.
     n_fcl_calls : int
+    model : str
+        ``mesh`` (3D meshes) or ``capsule`` (the 2D capsule model as the robot).
+    instrument : str
+        (d) The instrument whose metrology spread was added ("" if none).
+    metrology : dict
+        Its per-robot deviations (mean, std, max |.| of alpha, beta, dx, dy; mm).
+    spread_buffer_mm : float
+        ``b_p`` with angular errors and the metrology spread (NaN without an instrument).
+    spread_change_mm : float
+        ``spread_buffer_mm - mc_buffer_mm``: what the spread adds to ``b_p``.
+    spread_quantiles : dict; spread_samples_mm : list
+        ``B(e, m)`` quantiles and samples.
     """
 
     spec_name: str
@@ -90,6 +102,13 @@ class BufferCalibration:
     mc_samples_mm: list = field(default_factory=list, repr=False)
     seconds: dict = field(default_factory=dict)
     n_fcl_calls: int = 0
+    model: str = "mesh"
+    instrument: str = ""
+    metrology: dict = field(default_factory=dict)
+    spread_buffer_mm: float = math.nan
+    spread_change_mm: float = math.nan
+    spread_quantiles: dict = field(default_factory=dict)
+    spread_samples_mm: list = field(default_factory=list, repr=False)
 
     def to_dict(self) -> dict:
         def clean(v):
@@ -130,6 +149,11 @@ class BufferCalibration:
             f"deg, {self.n_draws} draws: buffer {self.mc_buffer_mm:.4f} mm keeps 3D safety with "
             f"p = {self.probability:g} (share {self.mc_share_mm:.4f} mm; worst corner "
             f"{self.corner_share_mm:.4f} mm; paper analytic {self.paper_sigma_eps_mm:.4f} mm)",
-            f"    {self.seconds.get('total', 0.0):.1f} s, {self.n_fcl_calls} FCL calls",
         ]
+        if self.instrument:
+            lines.append(
+                f"(d) + metrology spread of {self.instrument} ({self.metrology.get('n_robots', 0)} "
+                f"robots), same draws: buffer {self.spread_buffer_mm:.4f} mm for p = "
+                f"{self.probability:g} ({self.spread_change_mm:+.4f} mm)")
+        lines.append(f"    {self.seconds.get('total', 0.0):.1f} s, {self.n_fcl_calls} FCL calls")
         return "\n".join(lines)

@@ -68,8 +68,14 @@ def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "")
     save(fig, "wasted_space.png")
 
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
-    ax.hist(cal.mc_samples_mm, bins=50)
+    ax.hist(cal.mc_samples_mm, bins=50, alpha=0.7 if cal.instrument else 1.0,
+            label="angular errors" if cal.instrument else None)
     ax.axvline(cal.mc_buffer_mm, color="k", linestyle=":", label=f"b_p {cal.mc_buffer_mm:.3f} mm")
+    if cal.instrument:
+        ax.hist(cal.spread_samples_mm, bins=50, alpha=0.5, color="tab:green",
+                label=f"+ metrology spread ({cal.instrument})")
+        ax.axvline(cal.spread_buffer_mm, color="tab:green", linestyle=":",
+                   label=f"b_p with spread {cal.spread_buffer_mm:.3f} mm")
     ax.axvline(cal.safe_buffer_mm + cal.paper_sigma_eps_mm, color="tab:red", linestyle="--",
                label=f"b* + paper sigma_eps {cal.safe_buffer_mm + cal.paper_sigma_eps_mm:.3f} mm")
     ax.set_xlabel("buffer needed for one draw of angular errors B(e), mm")
@@ -83,7 +89,7 @@ def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "")
     rows = "\n".join(f"| {b:.2f} | {f:.4f} | {wf:.4f} |"
                      for b, f, wf in zip(cal.buffers_mm, cal.forbidden_fraction,
                                          cal.wasted_fraction))
-    md = f"""# Collision-buffer calibration: {cal.spec_name}
+    md = f"""# Collision-buffer calibration: {cal.spec_name} ({cal.geometry})
 
 {('Command: `' + command + '`') if command else ''}
 
@@ -143,7 +149,7 @@ buffer needed for every 2D-safe commanded configuration to stay 3D-safe.
 | B(e) median / 90 % / 99 % / max | {' / '.join(f"{cal.mc_quantiles[k]:.4f}" for k in ('0.5', '0.9', '0.99', '1.0'))} |
 
 ![Monte Carlo](mc_buffer.png)
-
+{spread_section(cal)}
 Stage times (s): {', '.join(f'{k} {v:.1f}' for k, v in cal.seconds.items())}.
 """
     md_path = out / "buffer_calibration.md"
@@ -151,3 +157,37 @@ Stage times (s): {', '.join(f'{k} {v:.1f}' for k, v in cal.seconds.items())}.
     js_path = out / "calibration.json"
     atomic_write_text(js_path, json.dumps(cal.to_dict(), indent=1))
     return {"markdown": md_path, "json": js_path, "figures": figs}
+
+
+def spread_section(cal: BufferCalibration) -> str:
+    """Markdown of part (d), the metrology spread ("" without an instrument)."""
+    if not cal.instrument:
+        return ""
+    m = cal.metrology
+    rows = "\n".join(
+        f"| {name} | {lab} | {m[name]['mean']:+.4f} | {m[name]['std']:.4f} | "
+        f"{m[name]['max_abs']:.4f} |"
+        for name, lab in (("alpha", f"alpha arm - {m['nominal_alpha_mm']:g} mm"),
+                          ("beta", f"metrology fiber x - {m['nominal_metrology_mm']:g} mm "
+                                   "(beta arm shift)"),
+                          ("dx", "base offset dx"), ("dy", "base offset dy")))
+    q = cal.spread_quantiles
+    return f"""
+## (d) Metrology spread of {cal.instrument}
+
+Each of the {cal.n_draws} draws above also gives robots A and B the measured deviations
+from nominal of two different robots of the **{cal.instrument}** calibration ({m['n_robots']}
+robots, drawn with replacement across draws); the 2D model keeps the nominal robot (a
+planner that ignores the per-robot calibration). Deviations, mm:
+
+| deviation | what | mean | std | max abs |
+|---|---|---|---|---|
+{rows}
+
+| quantity | mm |
+|---|---|
+| b_p, angular errors only | {cal.mc_buffer_mm:.4f} |
+| **b_p, angular errors + metrology spread ({cal.instrument})** | **{cal.spread_buffer_mm:.4f}** |
+| change | {cal.spread_change_mm:+.4f} |
+| B(e, m) median / 90 % / 99 % / max | {' / '.join(f"{q[k]:.4f}" for k in ('0.5', '0.9', '0.99', '1.0'))} |
+"""
