@@ -197,6 +197,25 @@ def obstacle_arrays(spec, layout):
     return a, b, obstacle_column(layout, "obstacle_buffer_mm", spec.fiducial_buffer_mm)
 
 
+#: Largest departure of a layout axis ``(kx, ky, kz)`` from unit length (it is normalised).
+AXIS_TOL = 1e-3
+
+
+def robot_axes(layout) -> np.ndarray:
+    """(n_robots, 3) float64 unit axis of each robot (columns ``kx, ky, kz``, blank +z),
+    normalised; LayoutError naming the robot for one that is not unit within AXIS_TOL."""
+    k = np.column_stack([robot_column(layout, c, d) for c, d in (("kx", 0.0), ("ky", 0.0),
+                                                                 ("kz", 1.0))])
+    norm = np.sqrt((k * k).sum(axis=1))
+    bad = np.flatnonzero(np.abs(norm - 1.0) > AXIS_TOL)
+    if bad.size:
+        r = int(bad[0])
+        raise LayoutError(f"{layout.name}: robot {int(layout.robot_ids[r])} fields 'kx, ky, kz' "
+                          f"= {k[r].tolist()} (length {norm[r]:.6f}); allowed: a unit vector "
+                          f"(within {AXIS_TOL}) or blank")
+    return k / norm[:, None]
+
+
 def has_robot_geometry(layout) -> bool:
     """True when the layout carries any per-robot geometry column."""
     return any(c in layout.extra for c in ROBOT_COLUMNS)

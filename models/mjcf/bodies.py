@@ -48,9 +48,9 @@ import numpy as np
 import trimesh
 
 from rfp_twin.models.geometry import RobotGeometry
-from rfp_twin.models.errors import LayoutError
 from rfp_twin.models.layout import Layout
-from rfp_twin.models.layout.columns import FIBERS, obstacle_arrays, robot_column, robot_fibers
+from rfp_twin.models.layout.columns import (FIBERS, obstacle_arrays, robot_axes, robot_column,
+                                            robot_fibers)
 from rfp_twin.models.mjcf.options import (BIT_ALPHA, BIT_BETA, COLLISION_CLASS, COLLISION_GROUP,
                                  DEFAULT_FIBER_RGBA, FIBER_RGBA, MNM, RGBA, VISUAL_CLASS,
                                  VISUAL_GROUP, ServoParams, fiducial_name, robot_name)
@@ -93,8 +93,6 @@ class _MovingLink:
 #: (estimate: covers a robot tilted by 2 deg, whose arm tip then rises or sinks by 0.8 mm,
 #: and the height change of a curved wok along a chip edge).
 SLAB_Z_MARGIN_MM = 2.0
-#: Largest departure of a layout axis ``(kx, ky, kz)`` from unit length (it is normalised).
-AXIS_TOL = 1e-3
 
 
 @dataclass(frozen=True)
@@ -122,25 +120,18 @@ def robot_frames(layout: Layout, geometry: RobotGeometry) -> RobotFrames:
     Raises
     ------
     LayoutError
-        An axis ``(kx, ky, kz)`` that is not a unit vector (within :data:`AXIS_TOL`).
+        An axis ``(kx, ky, kz)`` that is not a unit vector (within
+        :data:`rfp_twin.models.layout.columns.AXIS_TOL`).
     """
     n = layout.n_robots
     p = geometry.params
     la = robot_column(layout, "alpha_len_mm", float(geometry.link_offset("beta")[0]))
     z = robot_column(layout, "z_mm", 0.0)
-    k = np.column_stack([robot_column(layout, c, d) for c, d in (("kx", 0.0), ("ky", 0.0),
-                                                                 ("kz", 1.0))])
-    norm = np.sqrt((k * k).sum(axis=1))
-    bad = np.flatnonzero(np.abs(norm - 1.0) > AXIS_TOL)
-    if bad.size:
-        r = int(bad[0])
-        raise LayoutError(f"{layout.name}: robot {int(layout.robot_ids[r])} fields 'kx, ky, kz' "
-                          f"= {k[r].tolist()} (length {norm[r]:.6f}); allowed: a unit vector "
-                          f"(within {AXIS_TOL}) or blank")
+    k = robot_axes(layout)
     tilted = (k[:, 0] != 0.0) | (k[:, 1] != 0.0)
     quat = np.zeros((n, 4))
     quat[:, 0] = 1.0
-    u = k[tilted] / norm[tilted, None]
+    u = k[tilted]
     # half-way quaternion of z -> u: (1 + z.u, z x u), normalised
     q = np.column_stack([1.0 + u[:, 2], -u[:, 1], u[:, 0], np.zeros(len(u))])
     quat[tilted] = q / np.sqrt((q * q).sum(axis=1))[:, None]

@@ -41,9 +41,8 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull
 
-from rfp_twin.models.errors import LayoutError
 from rfp_twin.models.geometry import LINKS, RobotGeometry
-from rfp_twin.models.layout.columns import obstacle_arrays, robot_column
+from rfp_twin.models.layout.columns import obstacle_arrays, robot_axes, robot_column
 from rfp_twin.validation.mesh3d.bounds import ALPHA, BETA, pose
 from rfp_twin.validation.numerics import POINT_EPS2, REACH_TOL_MM
 
@@ -58,8 +57,6 @@ WALL = "gfa"
 #: estimate: a 2 deg tilt lifts or sinks a 24 mm arm's tip by 0.8 mm; the wok's height
 #: changes along a chip edge).
 WALL_Z_MARGIN_MM = 2.0
-#: Largest departure of a layout axis ``(kx, ky, kz)`` from unit length (it is normalised).
-AXIS_TOL = 1e-3
 
 
 def fit_capsule(points_xy: np.ndarray, n_radii: int = 24) -> tuple[np.ndarray, float]:
@@ -338,20 +335,13 @@ def placement(layout, models: LinkModels) -> Placement | None:
     Raises
     ------
     LayoutError
-        An axis ``(kx, ky, kz)`` that is not a unit vector (within :data:`AXIS_TOL`).
+        An axis ``(kx, ky, kz)`` that is not a unit vector (within
+        :data:`rfp_twin.models.layout.columns.AXIS_TOL`).
     """
     la = robot_column(layout, "alpha_len_mm", models.l_alpha)
     z = robot_column(layout, "z_mm", 0.0)
-    k = np.column_stack([robot_column(layout, c, d) for c, d in (("kx", 0.0), ("ky", 0.0),
-                                                                 ("kz", 1.0))])
-    norm = np.sqrt((k * k).sum(axis=1))
-    bad = np.flatnonzero(np.abs(norm - 1.0) > AXIS_TOL)
-    if bad.size:
-        r = int(bad[0])
-        raise LayoutError(f"{layout.name}: robot {int(layout.robot_ids[r])} fields 'kx, ky, kz' "
-                          f"= {k[r].tolist()} (length {norm[r]:.6f}); allowed: a unit vector "
-                          f"(within {AXIS_TOL}) or blank")
-    rot = np.array([axis_rotation(k[r] / norm[r]) for r in range(len(k))]).reshape(-1, 3, 3)
+    k = robot_axes(layout)
+    rot = np.array([axis_rotation(k[r]) for r in range(len(k))]).reshape(-1, 3, 3)
     tilted = (k[:, 0] != 0.0) | (k[:, 1] != 0.0)
     a, b, _ = obstacle_arrays(models.geometry.spec, layout)
     oz = np.zeros(len(a))
