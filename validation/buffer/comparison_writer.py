@@ -3,12 +3,11 @@ column (:func:`rfp_twin.validation.buffer.write_report` in a subfolder)."""
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 from rfp_twin.models.files import atomic_write_text
 from rfp_twin.validation.buffer.comparison import BufferComparison, slug
-from rfp_twin.validation.buffer.writer import write_report
+from rfp_twin.validation.buffer.writer import save_figure, write_report
 
 #: Files of the side-by-side report.
 COMPARISON_MD = "buffer_comparison.md"
@@ -37,12 +36,7 @@ def write_comparison(comp: BufferComparison, out_dir: str | Path, command: str =
     figs = []
 
     def save(fig, name):
-        path = out / name
-        tmp = out / f".{name}.tmp.png"
-        fig.savefig(tmp, dpi=120, bbox_inches="tight")
-        plt.close(fig)
-        os.replace(tmp, path)
-        figs.append(path)
+        figs.append(save_figure(fig, out, name))
 
     fig, ax = plt.subplots(figsize=(7.0, 4.4))
     for k, c in enumerate(cols):

@@ -11,6 +11,18 @@ from rfp_twin.models.files import atomic_write_text
 from rfp_twin.validation.buffer.report import BufferCalibration
 
 
+
+def save_figure(fig, out: Path, name: str) -> Path:
+    """Save a matplotlib figure as ``out / name`` (PNG, 120 dpi) atomically and close it."""
+    import matplotlib.pyplot as plt
+
+    path = out / name
+    tmp = out / f".{name}.tmp.png"
+    fig.savefig(tmp, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    os.replace(tmp, path)
+    return path
+
 def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "") -> dict:
     """Write ``buffer_calibration.md``, ``calibration.json`` and the figures
     (``scatter_2d_3d.png``, ``wasted_space.png``, ``mc_buffer.png``) to ``out_dir``.
@@ -28,12 +40,7 @@ def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "")
     figs = []
 
     def save(fig, name):
-        path = out / name
-        tmp = out / f".{name}.tmp.png"
-        fig.savefig(tmp, dpi=120, bbox_inches="tight")
-        plt.close(fig)
-        os.replace(tmp, path)
-        figs.append(path)
+        figs.append(save_figure(fig, out, name))
 
     d2 = np.asarray(cal.scatter_d2_mm)
     d3 = np.asarray(cal.scatter_d3_mm)
