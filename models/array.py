@@ -165,7 +165,7 @@ class ArrayGeometry:
                 np.any(self.fid_buffer != self.spec.fiducial_buffer_mm)
                 or np.any(self.fid_end_xy != self.fid_xy)):
             reach = max(reach, self.collision_reach + float(self.fid_buffer.max(initial=0.0)))
-            return _obstacles_within(self.base_xy, self.fid_xy, self.fid_end_xy,
+            return obstacles_within(self.base_xy, self.fid_xy, self.fid_end_xy,
                                      reach + self.fid_buffer - self.spec.fiducial_buffer_mm)
         ptr, idx = self.layout.robot_fiducial_csr(reach)
         return np.asarray(ptr, dtype=np.int64), np.asarray(idx, dtype=np.int64)
@@ -214,7 +214,7 @@ class ArrayGeometry:
         return (d - self.buffer[self.robot_fid_pairs[:, 0]]
                 - self.fid_buffer[self.robot_fid_pairs[:, 1]])
 
-def _obstacles_within(base: np.ndarray, a: np.ndarray, b: np.ndarray,
+def obstacles_within(base: np.ndarray, a: np.ndarray, b: np.ndarray,
                       reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """CSR (ptr (n + 1,), idx) of the obstacles (segments ``a``-``b``, (m, 2) mm) whose
     distance to each robot base (n, 2) is within that obstacle's ``reach`` (m,) mm."""

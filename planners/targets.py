@@ -11,7 +11,7 @@ from numba import njit
 
 from rfp_twin.models.errors import TargetError
 from rfp_twin.models.geometry2d import beta_segment, segment_distance
-from rfp_twin.models.kinematics import fiber_polar, inverse, sample_patrol_zone
+from rfp_twin.models.kinematics import fiber_polar, inverse_fiber, sample_patrol_zone
 from rfp_twin.models.layout.columns import FIBER_COLUMNS, robot_fibers
 
 #: Draws per robot before random assignment gives up.
@@ -156,7 +156,8 @@ def _patrol_sampler(geom):
                                        spec.beta_length_mm)
             return draws.reshape(robots.size, k, 2)
         return nominal
-    length, phi = fiber_polar(robot_fibers(geom.layout, {"metrology": (spec.beta_length_mm, 0.0)})[:, 0])
+    met = robot_fibers(geom.layout, {"metrology": (spec.beta_length_mm, 0.0)})[:, 0]
+    length, _ = fiber_polar(met)
     la = geom.alpha_len
 
     def own(rng, robots, k):
@@ -167,12 +168,7 @@ def _patrol_sampler(geom):
         r = np.clip(r, r_in + 1e-9, r_out - 1e-9)
         ang = rng.uniform(0.0, 2.0 * np.pi, size=r.size)
         xy = np.column_stack([r * np.cos(ang), r * np.sin(ang)])
-        out = np.empty_like(xy)
-        for lv in np.unique(la_r):                 # inverse() takes one arm pair at a time
-            for lf in np.unique(lb_r[la_r == lv]):
-                sel = (la_r == lv) & (lb_r == lf)
-                out[sel] = inverse(np.zeros((int(sel.sum()), 2)), xy[sel], float(lv), float(lf))
-        out[:, 1] = (out[:, 1] - np.repeat(phi[robots], k)) % 360.0
+        out = inverse_fiber(np.zeros_like(xy), xy, la_r, np.repeat(met[robots], k, axis=0))
         return out.reshape(robots.size, k, 2)
     return own
 

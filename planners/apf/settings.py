@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfp_twin.models.array import ArrayGeometry, _obstacles_within
+from rfp_twin.models.array import ArrayGeometry, obstacles_within
 from rfp_twin.models.errors import SpecError, field_error
 
 DEG = math.pi / 180.0
@@ -259,5 +259,5 @@ def obstacle_csr(geom: ArrayGeometry, reach_mm: float) -> tuple[np.ndarray, np.n
     if np.all(a == b) and np.all(fex == 0.0):
         ptr, idx = geom.layout.robot_fiducial_csr(float(reach_mm))
         return np.asarray(ptr, dtype=np.int64), np.asarray(idx, dtype=np.int64)
-    ptr, idx = _obstacles_within(geom.base_xy, a, b, float(reach_mm) + fex)
+    ptr, idx = obstacles_within(geom.base_xy, a, b, float(reach_mm) + fex)
     return np.asarray(ptr, dtype=np.int64), np.asarray(idx, dtype=np.int64)
