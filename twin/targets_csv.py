@@ -24,6 +24,7 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import TargetError
+from rfp_twin.models.geometry.dimensions import SDSS_V_DEFAULTS
 from rfp_twin.models.kinematics import inverse, inverse_fiber
 from rfp_twin.models.layout.columns import FIBER_COLUMNS, FIBERS, robot_fibers
 
@@ -31,7 +32,7 @@ ANGLE_COLUMNS = ("alpha_deg", "beta_deg")
 XY_COLUMNS = ("x_mm", "y_mm")
 WOK_COLUMNS = ("x_wok_mm", "y_wok_mm")
 #: Nominal SDSS-V fibers in the beta-arm frame, mm (coordio), for layouts without fiber columns.
-NOMINAL_FIBERS = {"metrology": (14.314, 0.0), "boss": (14.965, -0.376), "apogee": (14.965, 0.376)}
+NOMINAL_FIBERS = {name: (x, y) for name, x, y in SDSS_V_DEFAULTS["fibers"]}
 
 
 def read_targets_csv(path: str | Path, geom: ArrayGeometry) -> np.ndarray:
