@@ -12,11 +12,13 @@ duration in seconds of simulated time):
     a body frame is its link frame). A pose is logged only when the robot moved since
     its previous sample, so still robots cost nothing.
 ``robots/<id>/alpha/beta/fibers``
-    the fiber tips as points in the beta frame (static): they ride with the beta arm.
-``fiducials/<id>``, ``plate``
-    static meshes / box.
+    the fiber tips the robot carries as points in the beta frame (static): they ride with
+    the beta arm.
+``fiducials/<id>``, ``gfa/<id>``, ``plate``
+    static: a fiducial's mesh, a guide-camera edge's wall box, the plate box.
 ``traces/<fiber>``
-    the path of that fiber of every robot over the whole run, one line strip per robot
+    the path of that fiber of every robot that carries it over the whole run, one line
+    strip per robot
     (world frame, static; about one point per :data:`TRACE_SPACING_MM` of path).
 ``contacts``
     the simulation's contacts (:class:`rfp_twin.twin.sim.ContactLog`) as red points at the
@@ -41,7 +43,7 @@ import numpy as np
 import rerun as rr
 
 from rfp_twin.models.errors import RfpError
-from rfp_twin.models.mjcf import RGBA, TwinModel
+from rfp_twin.models.mjcf import RGBA, VISUAL_GROUP, TwinModel
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.sim import SimReport, SimSettings, simulate
 
@@ -244,12 +246,14 @@ def _log_run(rec: rr.RecordingStream, twin: TwinModel, report: SimReport,
     tips = np.empty((T, n, len(trace_cols), 3))
     qadr = idx.qpos_adr.ravel()
     sites = idx.fiber_site[:, trace_cols]
+    carried = sites >= 0                   # (n, k): a robot without that fiber has no site
     for k in range(T):
         d.qpos[qadr] = np.radians(angles[k]).ravel()
         mujoco.mj_kinematics(m, d)
         q_alpha[k] = d.xquat[idx.alpha_body]
         q_beta[k] = d.xquat[idx.beta_body]
         tips[k] = d.site_xpos[sites]
+    tips[:, ~carried] = np.nan
     q_base = d.xquat[idx.base_body].copy()
     # link frames relative to their parents: alpha in the robot frame, beta in alpha's
     rel_alpha = _quat_mul(_quat_conj(q_base)[None], q_alpha)
@@ -260,6 +264,7 @@ def _log_run(rec: rr.RecordingStream, twin: TwinModel, report: SimReport,
     # static: robot frames, meshes, fibers in the beta frame
     meshes = geometry.link_meshes("visual")
     fiber_local = np.asarray(m.site_pos)[idx.fiber_site]  # (n, k, 3) in the beta body frame
+    has_fiber = idx.fiber_site >= 0
     fiber_colors = [_rgba8(FIBER_RGBA.get(f, DEFAULT_FIBER_RGBA)) for f in fibers]
     mesh_arch = {name: _mesh3d(meshes[name], RGBA[name]) for name in ("body", "alpha", "beta")}
     for k, rid in enumerate(idx.robot_ids):
@@ -268,17 +273,12 @@ def _log_run(rec: rr.RecordingStream, twin: TwinModel, report: SimReport,
                                      quaternion=_xyzw(q_base[k])), static=True)
         for name, path in (("body", "body"), ("alpha", "alpha"), ("beta", "alpha/beta")):
             rec.log(f"{root}/{path}", mesh_arch[name], static=True)
-        rec.log(f"{root}/alpha/beta/fibers", rr.Points3D(fiber_local[k], radii=FIBER_RADIUS_MM,
-                                                         colors=fiber_colors,
-                                                         labels=list(fibers)), static=True)
-    if idx.fiducial_ids.size:
-        fid_arch = _mesh3d(meshes["fiducial"], RGBA["fiducial"])
-        for j, fid in enumerate(idx.fiducial_ids):
-            path = f"fiducials/{int(fid)}"
-            rec.log(path, fid_arch, static=True)
-            rec.log(path, rr.Transform3D(translation=d.xpos[idx.fiducial_body[j]],
-                                         quaternion=_xyzw(d.xquat[idx.fiducial_body[j]])),
-                    static=True)
+        own = np.flatnonzero(has_fiber[k])
+        rec.log(f"{root}/alpha/beta/fibers",
+                rr.Points3D(fiber_local[k, own], radii=FIBER_RADIUS_MM,
+                            colors=[fiber_colors[c] for c in own],
+                            labels=[fibers[c] for c in own]), static=True)
+    _log_obstacles(rec, m, d, idx, meshes)
     plate = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "focal_plate")
     if plate >= 0:
         rec.log("plate", rr.Boxes3D(centers=[d.geom_xpos[plate]], half_sizes=[m.geom_size[plate]],
@@ -297,16 +297,45 @@ def _log_run(rec: rr.RecordingStream, twin: TwinModel, report: SimReport,
                                  translation=np.repeat(t_rel[k][None], rows.size, axis=0),
                                  quaternion=_xyzw(q_rel[rows, k])))
 
-    # fiber traces over the whole run
+    # fiber traces over the whole run (robots that carry that fiber)
     for c, name in enumerate(trace):
-        strips = [_strip(tips[:, k, c]) for k in range(n)]
+        own = np.flatnonzero(carried[:, c])
+        strips = [_strip(tips[:, k, c]) for k in own]
         rec.log(f"traces/{name}",
                 rr.LineStrips3D(strips, radii=TRACE_RADIUS_MM,
-                                colors=[_rgba8(FIBER_RGBA.get(name, DEFAULT_FIBER_RGBA))] * n,
-                                labels=[f"r{int(r)}" for r in idx.robot_ids]), static=True)
+                                colors=[_rgba8(FIBER_RGBA.get(name, DEFAULT_FIBER_RGBA))] * len(own),
+                                labels=[f"r{int(idx.robot_ids[k])}" for k in own]), static=True)
 
     if settings.contacts:
         _log_contacts(rec, report, np.asarray(record.times, float))
+
+
+def _log_obstacles(rec: rr.RecordingStream, m: mujoco.MjModel, d: mujoco.MjData, idx,
+                   meshes: dict) -> None:
+    """Static obstacles: a fiducial post as the fiducial mesh at its body pose
+    (``fiducials/<id>``), a guide-camera edge as its wall box (``gfa/<id>``: the collision
+    box of the model, world centre, half sizes and orientation)."""
+    fid_arch = None
+    for j, fid in enumerate(idx.fiducial_ids):
+        body = int(idx.fiducial_body[j])
+        geoms = np.flatnonzero((np.asarray(m.geom_bodyid) == body)
+                               & (np.asarray(m.geom_type) == mujoco.mjtGeom.mjGEOM_BOX)
+                               & (np.asarray(m.geom_group) == VISUAL_GROUP))
+        if geoms.size:
+            quats = np.empty((geoms.size, 4))
+            for q, g in zip(quats, geoms):
+                mujoco.mju_mat2Quat(q, d.geom_xmat[g])
+            rec.log(f"gfa/{int(fid)}",
+                    rr.Boxes3D(centers=d.geom_xpos[geoms], half_sizes=m.geom_size[geoms],
+                               quaternions=_xyzw(quats), colors=[_rgba8(RGBA["fiducial"])],
+                               fill_mode=rr.components.FillMode.Solid), static=True)
+            continue
+        if fid_arch is None:
+            fid_arch = _mesh3d(meshes["fiducial"], RGBA["fiducial"])
+        path = f"fiducials/{int(fid)}"
+        rec.log(path, fid_arch, static=True)
+        rec.log(path, rr.Transform3D(translation=d.xpos[body], quaternion=_xyzw(d.xquat[body])),
+                static=True)
 
 
 def _log_contacts(rec: rr.RecordingStream, report: SimReport, grid: np.ndarray) -> None:

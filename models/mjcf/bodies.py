@@ -20,9 +20,11 @@ Each robot's own geometry (layout columns, :mod:`rfp_twin.models.layout.columns`
 at that distance along the alpha arm; the alpha link's *mesh* stays the nominal one (it
 differs by at most 0.1 mm on the calibrated instruments; only the joint axis moves). Its
 fibers get sites where it carries them (``robot_fibers``: none where a fiber is not
-carried). Its base sits ``z_mm`` above the others and the whole robot is tilted so that
-its alpha axis is along ``(kx, ky, kz)`` (the smallest rotation taking z to that axis: the
-arm's alpha = 0 direction stays as close to +x as the tilt allows). Blank columns give the
+carried). The whole robot is tilted so that its alpha axis is along ``(kx, ky, kz)`` (the
+smallest rotation taking z to that axis: the arm's alpha = 0 direction stays as close to +x
+as the tilt allows) and stands on that axis so that its axis meets the focal surface at the
+layout's ``(x_mm, y_mm)``, ``z_mm`` above the flat focal plane: its base is ``fiber_z_mm``
+back along the axis from there (:func:`rfp_twin.models.layout.columns.robot_frame_origins`). Blank columns give the
 nominal robot, bit for bit.
 
 Obstacles (:func:`obstacle_shapes`): a point obstacle (a fiducial) is the fiducial post at
@@ -50,7 +52,7 @@ import trimesh
 from rfp_twin.models.geometry import RobotGeometry
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.layout.columns import (FIBERS, obstacle_arrays, robot_axes, robot_column,
-                                            robot_fibers)
+                                            robot_fibers, robot_frame_origins)
 from rfp_twin.models.mjcf.options import (BIT_ALPHA, BIT_BETA, COLLISION_CLASS, COLLISION_GROUP,
                                  DEFAULT_FIBER_RGBA, FIBER_RGBA, MNM, RGBA, VISUAL_CLASS,
                                  VISUAL_GROUP, ServoParams, fiducial_name, robot_name)
@@ -100,7 +102,9 @@ class RobotFrames:
     """Each robot's own placement and fibers, layout robot order (mm).
 
     alpha_len : (n,) float64, alpha axis to beta hinge
-    z : (n,) float64, base height above the nominal robot frames
+    z : (n,) float64, height of the robot's focal-surface point above a flat wok's
+    origin : (n, 3) float64, robot frame origin relative to the nominal robot frames'
+        height (:func:`rfp_twin.models.layout.columns.robot_frame_origins`)
     quat : (n, 4) float64, (w, x, y, z) rotation taking +z to the robot's axis
     tilted : (n,) bool, rows whose axis is not +z (their ``quat`` is applied)
     fibers : (n, k, 2) float64, fiber (x, y) in the beta frame per name of the geometry's
@@ -109,6 +113,7 @@ class RobotFrames:
 
     alpha_len: np.ndarray
     z: np.ndarray
+    origin: np.ndarray
     quat: np.ndarray
     tilted: np.ndarray
     fibers: np.ndarray
@@ -139,7 +144,8 @@ def robot_frames(layout: Layout, geometry: RobotGeometry) -> RobotFrames:
     fibers = np.empty((n, len(p.fibers), 2))
     for c, (f, x, y) in enumerate(p.fibers):
         fibers[:, c] = own[:, FIBERS.index(f)] if f in FIBERS else (x, y)
-    return RobotFrames(la, z, quat, tilted, fibers)
+    origin = robot_frame_origins(layout, p.fiber_z_mm)
+    return RobotFrames(la, z, origin, quat, tilted, fibers)
 
 
 @dataclass(frozen=True)
@@ -233,11 +239,11 @@ def add_grid(s: mujoco.MjSpec, spec: RobotSpec, layout: Layout, geometry: RobotG
                        col_mesh["beta"], BIT_BETA, BIT_BETA)
     world = s.worldbody
 
-    for k, (rid, (x, y)) in enumerate(zip(layout.robot_ids, layout.robot_xy)):
+    for k, rid in enumerate(layout.robot_ids):
         rid = int(rid)
         la = float(frames.alpha_len[k])
-        base = world.add_body(name=robot_name(rid), pos=[float(x), float(y),
-                                                         base_z + float(frames.z[k])])
+        x, y, z = (float(v) for v in frames.origin[k])
+        base = world.add_body(name=robot_name(rid), pos=[x, y, base_z + z])
         if frames.tilted[k]:
             base.quat = list(frames.quat[k])
         base.add_geom(default=vis, name=robot_name(rid, "body"), meshname=vis_mesh["body"],

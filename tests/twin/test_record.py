@@ -141,3 +141,48 @@ def test_bad_requests_raise_and_leave_nothing(tmp_path, twin7, colliding7):
     assert list(tmp_path.iterdir()) == []
 
 
+
+
+def test_fibers_a_robot_lacks_are_not_drawn_and_a_guide_camera_edge_is_its_wall(tmp_path):
+    """Robot 0 carries no BOSS fiber (blank columns); robot 1 does; a gfa row is a segment:
+    the recording draws robot 0's metrology fiber only, a BOSS trace for robot 1 only (no
+    stray point at another robot's site), and the wall box where the model has it."""
+    from rfp_twin.models.layout import Layout
+    from rfp_twin.models.mjcf import build_model
+    from rfp_twin.models.robot import load_spec
+
+    lay = Layout([0, 1, 9], [[0.0, 0.0], [60.0, 0.0], [-30.0, 20.0]], ["robot", "robot", "gfa"],
+                 name="wall", extra={"x2_mm": ["", "", "30.0"], "y2_mm": ["", "", "20.0"],
+                                     "boss_x_mm": ["", "14.965", ""],
+                                     "boss_y_mm": ["", "-0.376", ""]})
+    twin = build_model(load_spec("sdss-v"), lay)
+    assert twin.index.fiber_site[0, 1] < 0 <= twin.index.fiber_site[1, 1]
+    traj = moves_trajectory(lay, {0: ([0.0, 1.0], [10.0, 200.0], [170.0, 150.0]),
+                                  1: ([0.0, 1.0], [10.0, 200.0], [170.0, 150.0])})
+    out = record_run(twin, traj, tmp_path / "w.rrd", settings=RecordSettings(contacts=False))
+    assert rrd_verify(out, tmp_path / "config").returncode == 0
+    ent = chunks_by_entity(out)
+
+    def column(path, name):
+        for ch in ent[path]:
+            rb = ch.to_record_batch()
+            if name in rb.schema.names:
+                return rb.column(name).to_pylist()[0]
+        raise AssertionError(f"{path}: no {name}")
+
+    assert column("/robots/0/alpha/beta/fibers", "Points3D:labels") == ["metrology"]
+    assert sorted(column("/robots/1/alpha/beta/fibers", "Points3D:labels")) == ["boss",
+                                                                                 "metrology"]
+    assert column("/traces/boss", "LineStrips3D:labels") == ["r1"]
+    strips = column("/traces/boss", "LineStrips3D:strips")
+    assert len(strips) == 1 and np.isfinite(np.array(strips[0])).all()
+    assert len(column("/traces/metrology", "LineStrips3D:strips")) == 2
+    # the wall: the model's visual box, in the world
+    m = twin.model
+    g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, [mujoco.mj_id2name(
+        m, mujoco.mjtObj.mjOBJ_GEOM, int(i)) for i in np.flatnonzero(twin.index.geom_fiducial == 0)
+        if "visual" in mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(i))][0])
+    d = twin.make_data(np.zeros((2, 2)))
+    assert "/fiducials/9" not in ent
+    np.testing.assert_allclose(column("/gfa/9", "Boxes3D:centers"), [d.geom_xpos[g]], atol=1e-5)
+    np.testing.assert_allclose(column("/gfa/9", "Boxes3D:half_sizes"), [m.geom_size[g]], atol=1e-5)

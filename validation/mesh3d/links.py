@@ -21,8 +21,10 @@ deg at the public boundary.
 Each robot's own geometry (:class:`Placement`, from the layout columns of
 :mod:`rfp_twin.models.layout.columns`): its alpha arm ``alpha_len_mm`` sets where its beta
 axis is (the alpha link's mesh stays the nominal one: it differs by at most 0.1 mm on the
-calibrated instruments), its base is ``z_mm`` higher and the whole robot is tilted by the
-smallest rotation ``R_k`` taking z to its axis ``(kx, ky, kz)``: a link's world transform
+calibrated instruments), the whole robot is tilted by the smallest rotation ``R_k`` taking z
+to its axis ``(kx, ky, kz)`` and stands on that axis with its focal-surface point at the
+layout's x, y and ``z_mm`` (frame origin ``fiber_z_mm`` back along the axis,
+:func:`rfp_twin.models.layout.columns.robot_frame_origins`): a link's world transform
 is ``R_k Rz(theta)`` and ``base + R_k (local offset)`` (:func:`link_frames`), the MuJoCo
 model's body poses. Obstacles: a point (fiducial) is the fiducial post at its xy; a segment
 (a ``gfa`` row: a guide-camera chip edge) a wall along it (:func:`wall_mesh`, link kind
@@ -42,7 +44,8 @@ import trimesh
 from scipy.spatial import ConvexHull
 
 from rfp_twin.models.geometry import LINKS, RobotGeometry
-from rfp_twin.models.layout.columns import obstacle_arrays, robot_axes, robot_column
+from rfp_twin.models.layout.columns import (obstacle_arrays, robot_axes, robot_column,
+                                            robot_frame_origins)
 from rfp_twin.validation.mesh3d.bounds import ALPHA, BETA, pose
 from rfp_twin.validation.numerics import POINT_EPS2, REACH_TOL_MM
 
@@ -307,7 +310,9 @@ class Placement:
     """Each robot's and obstacle's own placement, layout order (mm).
 
     alpha_len : (n,) float64, alpha axis to beta axis
-    base : (n, 3) float64, robot frame origin: layout x, y and ``z_mm``
+    base : (n, 3) float64, robot frame origin
+        (:func:`rfp_twin.models.layout.columns.robot_frame_origins`: the layout's x, y and
+        ``z_mm`` for an upright robot)
     rot : (n, 3, 3) float64, ``R_k`` (:func:`axis_rotation`); ``tilted`` (n,) bool where it
         is not the identity
     obs_a, obs_b : (m, 2) float64, obstacle ends (equal for a point)
@@ -348,8 +353,8 @@ def placement(layout, models: LinkModels) -> Placement | None:
     if len(a) and len(z) and np.any(z != 0.0):
         d2 = ((((a + b) / 2.0)[:, None, :] - layout.robot_xy[None]) ** 2).sum(axis=2)
         oz = z[np.argmin(d2, axis=1)]
-    out = Placement(la, np.column_stack([layout.robot_xy, z]).reshape(-1, 3), rot, tilted, a, b,
-                    oz)
+    out = Placement(la, robot_frame_origins(layout, models.geometry.params.fiber_z_mm), rot,
+                    tilted, a, b, oz)
     if np.all(la == models.l_alpha) and not tilted.any() and not z.any() and not oz.any() \
             and not out.wall.any():
         return None
