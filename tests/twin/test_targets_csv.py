@@ -56,6 +56,31 @@ def test_a_boss_target_in_wok_coordinates_lands_the_boss_fiber(apo, tmp_path):
     assert np.hypot(*(met - want).T).min() > 0.6
 
 
+def test_a_boss_target_lands_the_boss_fiber_of_the_mujoco_model(apo, tmp_path):
+    """The same targets, put into the MuJoCo twin of the APO instrument at the solved
+    angles: each robot's BOSS fiber site is on its target (wok frame turned into the
+    planning frame) within 1 um, and at the focal surface."""
+    from rfp_twin.models.instrument import wok_to_plane
+    from rfp_twin.models.mjcf import build_model
+
+    cal = read_calibration(calibration_folder("sdss-v-apo"))
+    rng = np.random.default_rng(8)
+    angles = np.column_stack([rng.uniform(0, 360, cal.n_robots), rng.uniform(20, 160, cal.n_robots)])
+    want = np.array([fiber_in_wok(cal, k, *angles[k], 1) for k in range(cal.n_robots)])
+    rows = [(int(cal.robot_ids[k]), *want[k], "boss") for k in range(cal.n_robots)]
+    got = read_targets_csv(write(tmp_path / "t.csv", ["robot_id", "x_wok_mm", "y_wok_mm", "fiber"],
+                                 rows), apo)
+    twin = build_model(apo.spec, apo.layout)
+    order = [int(np.flatnonzero(cal.robot_ids == r)[0]) for r in apo.layout.robot_ids]
+    xyz = twin.fiber_xyz(twin.make_data(got))
+    boss = twin.index.fiber_names.index("boss")
+    miss = np.hypot(*(xyz[:, boss, :2] - wok_to_plane(want[order])).T)
+    assert miss.max() < 1e-3, miss.max()
+    assert xyz[:, boss, 2] == pytest.approx(twin.geometry.params.focal_z_mm, abs=1e-9)
+    met = twin.index.fiber_names.index("metrology")
+    assert np.hypot(*(xyz[:, met, :2] - wok_to_plane(want[order])).T).min() > 0.6
+
+
 def test_a_fiber_the_robot_does_not_carry_names_the_line(apo, tmp_path):
     cal = read_calibration(calibration_folder("sdss-v-apo"))
     boss_only = int(np.flatnonzero(cal.robot_hole_types == "Boss")[0])
