@@ -5,7 +5,7 @@ Run from the repository root::
 
     .venv/bin/python benchmarks/bench_instruments.py [--part speed|checks|all]
         [--seeds 1-20] [--speed-seeds 1-5] [--buffers 1.5 2.0 2.5 3.0 3.5] [--no-3d]
-        [--md-out FILE]
+        [--layouts sdss-v-fps sdss-v-apo sdss-v-lco sdss-v-curved] [--md-out FILE]
 
 1. ``speed``: path generation (the planner kernel's tau_pg, and the whole planning call
    with its target checks) of greedy and Markov (greed 0.7 / phobia 0.6, SDSS-V's
@@ -73,14 +73,14 @@ def part_speed(seeds: list[int]) -> str:
     return md_table(head, rows)
 
 
-def part_checks(seeds: list[int], buffers: list[float], with_3d: bool) -> str:
+def part_checks(seeds: list[int], buffers: list[float], with_3d: bool,
+                layouts: tuple[str, ...] = LAYOUTS) -> str:
     rows = []
     for buf in buffers:
-        effs = {}
-        for lay in LAYOUTS:
+        for lay in layouts:
             rc = Reconfiguration.from_names(PRESET, lay, buffer_mm=buf,
                                             options=PlanOptions(algorithm="greedy"))
-            eff, bad2d, bad3d, n3d, wall = [], 0, 0, 0, []
+            eff, bad2d, bad3d, n3d, wall, min3d, sec3d = [], 0, 0, 0, [], np.inf, []
             for s in seeds:
                 t0 = time.perf_counter()
                 out = rc.run(seed=s)
@@ -90,18 +90,21 @@ def part_checks(seeds: list[int], buffers: list[float], with_3d: bool) -> str:
                 if with_3d and buf == 2.0 and lay != "sdss-v-fps":
                     from rfp_twin.validation.mesh3d import validate_trajectory
                     from rfp_twin.models.geometry import load_geometry
+                    t0 = time.perf_counter()
                     rep = validate_trajectory(out.trajectory, rc.spec, rc.layout,
                                               load_geometry(PRESET))
+                    sec3d.append(time.perf_counter() - t0)
                     bad3d += len(rep.collisions)
+                    min3d = min(min3d, rep.min_distance_mm)
                     n3d += 1
-            effs[lay] = eff
             rows.append([f"{buf:.1f}", lay, str(len(seeds)), f"{np.mean(eff):.4f}",
                          f"{np.min(eff):.4f}", str(bad2d),
-                         f"{bad3d} ({n3d} runs)" if n3d else "-",
+                         f"{bad3d} ({n3d} runs, min {min3d:.2f} mm, "
+                         f"{statistics.median(sec3d):.0f} s each)" if n3d else "-",
                          f"{statistics.median(wall):.1f}"])
             print(rows[-1], flush=True)
     head = ["buffer mm", "layout", "seeds", "efficiency mean", "min", "2D collisions",
-            "3D collisions", "plan command s (median)"]
+            "3D collisions", "pipeline s (median)"]
     return md_table(head, rows)
 
 
@@ -112,6 +115,8 @@ def main() -> None:
     ap.add_argument("--speed-seeds", type=seeds_arg, default=seeds_arg("1-5"))
     ap.add_argument("--buffers", type=float, nargs="+", default=[1.5, 2.0, 2.5, 3.0, 3.5])
     ap.add_argument("--no-3d", action="store_true")
+    ap.add_argument("--layouts", nargs="+", default=list(LAYOUTS),
+                    help="layouts of the checks part (sdss-v-curved too)")
     ap.add_argument("--md-out")
     args = ap.parse_args()
     parts = [f"Machine: {machine_info('numba')}", f"Command: `{command_line()}`", ""]
@@ -119,7 +124,8 @@ def main() -> None:
         parts += ["Path generation, 500 robots, step 0.1 deg, 2.0 mm:", "", part_speed(args.speed_seeds), ""]
     if args.part in ("checks", "all"):
         parts += ["Whole pipeline per buffer (greedy + search):", "",
-                  part_checks(args.seeds, args.buffers, not args.no_3d), ""]
+                  part_checks(args.seeds, args.buffers, not args.no_3d,
+                              tuple(args.layouts)), ""]
     write_block("\n".join(parts), args.md_out)
 
 

@@ -17,7 +17,8 @@ import numpy as np
 from rfp_twin.models.errors import SpecError
 from rfp_twin.models.geometry2d import fiducial_distances, pair_distances
 from rfp_twin.models.layout import Layout
-from rfp_twin.models.layout.columns import obstacle_arrays, robot_collision_arrays
+from rfp_twin.models.layout.columns import (obstacle_arrays, robot_collision_arrays,
+                                            robot_joint_limits)
 from rfp_twin.models.robot import RobotSpec
 
 #: Sayres 2021 Sect. 4.1 studies buffers 1.5-3.5 mm; anything in (0, pitch/2) is allowed.
@@ -84,6 +85,13 @@ class ArrayGeometry:
         its own buffer, shifted by its metrology fiber's offset; see
         :func:`rfp_twin.models.layout.columns.robot_collision_arrays`)."""
         return self._robot_arrays[2]
+
+    @cached_property
+    def limits(self) -> np.ndarray:
+        """(n, 4) float64 each robot's travel range in model angles (alpha_lo, alpha_hi,
+        beta_lo, beta_hi), deg: the spec's, shifted by the robot's encoder offsets
+        (:func:`rfp_twin.models.layout.columns.robot_joint_limits`)."""
+        return robot_joint_limits(self.spec, self.layout)
 
     @cached_property
     def uniform(self) -> bool:

@@ -12,7 +12,7 @@ from numba import njit
 from rfp_twin.models.errors import TargetError
 from rfp_twin.models.geometry2d import beta_segment, segment_distance
 from rfp_twin.models.kinematics import fiber_polar, inverse_fiber, sample_patrol_zone
-from rfp_twin.models.layout.columns import FIBER_COLUMNS, robot_fibers
+from rfp_twin.models.layout.columns import FIBER_COLUMNS, fit_to_limits, robot_fibers
 
 #: Draws per robot before random assignment gives up.
 POOL_SIZE = 256
@@ -141,36 +141,52 @@ def _draw_targets(geom, rng, fixed, initial, margin_mm, robots) -> np.ndarray:
     return out
 
 
+#: Rounds of redrawing the configurations that fall outside a robot's travel range.
+MAX_LIMIT_REDRAWS = 64
+
+
 def _patrol_sampler(geom):
     """``sample(rng, robots (r,), k) -> (r, k, 2)`` deg: right-armed configurations with the
-    fiber uniform (by area) in each robot's patrol annulus.
+    fiber uniform (by area) in each robot's patrol annulus, within its travel range.
 
     Nominal layouts draw with the spec's arms (Sayres 2021 Sect. 4.1, the paper's fiber at
     ``beta_length_mm``); a layout that carries fibers (a calibrated instrument) draws each
     robot's metrology fiber in its own annulus (its alpha arm, its fiber), as SDSS-V does.
+    Alpha is then turned into the robot's range and a draw whose beta falls outside it
+    (a spec with a narrower beta range, or encoder offsets that shift it) is drawn again.
     """
     spec = geom.spec
     if not any(c in geom.layout.extra for c in FIBER_COLUMNS["metrology"]) and geom.uniform:
-        def nominal(rng, robots, k):
-            draws = sample_patrol_zone(rng, robots.size * k, spec.alpha_length_mm,
-                                       spec.beta_length_mm)
-            return draws.reshape(robots.size, k, 2)
-        return nominal
-    met = robot_fibers(geom.layout, {"metrology": (spec.beta_length_mm, 0.0)})[:, 0]
-    length, _ = fiber_polar(met)
-    la = geom.alpha_len
+        def draw(rng, rows):
+            return sample_patrol_zone(rng, rows.size, spec.alpha_length_mm, spec.beta_length_mm)
+    else:
+        met = robot_fibers(geom.layout, {"metrology": (spec.beta_length_mm, 0.0)})[:, 0]
+        length, _ = fiber_polar(met)
+        la = geom.alpha_len
 
-    def own(rng, robots, k):
-        la_r = np.repeat(la[robots], k)
-        lb_r = np.repeat(length[robots], k)
-        r_in, r_out = np.abs(la_r - lb_r), la_r + lb_r
-        r = np.sqrt(rng.uniform(r_in * r_in, r_out * r_out))
-        r = np.clip(r, r_in + 1e-9, r_out - 1e-9)
-        ang = rng.uniform(0.0, 2.0 * np.pi, size=r.size)
-        xy = np.column_stack([r * np.cos(ang), r * np.sin(ang)])
-        out = inverse_fiber(np.zeros_like(xy), xy, la_r, np.repeat(met[robots], k, axis=0))
-        return out.reshape(robots.size, k, 2)
-    return own
+        def draw(rng, rows):
+            la_r, lb_r = la[rows], length[rows]
+            r_in, r_out = np.abs(la_r - lb_r), la_r + lb_r
+            r = np.sqrt(rng.uniform(r_in * r_in, r_out * r_out))
+            r = np.clip(r, r_in + 1e-9, r_out - 1e-9)
+            ang = rng.uniform(0.0, 2.0 * np.pi, size=r.size)
+            xy = np.column_stack([r * np.cos(ang), r * np.sin(ang)])
+            return inverse_fiber(np.zeros_like(xy), xy, la_r, met[rows])
+
+    def sample(rng, robots, k):
+        rows = np.repeat(robots, k)
+        out, inside = fit_to_limits(draw(rng, rows), geom.limits[rows])
+        for _ in range(MAX_LIMIT_REDRAWS):
+            if inside.all():
+                return out.reshape(robots.size, k, 2)
+            again = np.flatnonzero(~inside)
+            out[again], inside[again] = fit_to_limits(draw(rng, rows[again]),
+                                                      geom.limits[rows[again]])
+        bad = int(rows[np.flatnonzero(~inside)[0]])
+        raise TargetError(f"robot {int(geom.robot_ids[bad])}: no random target within its "
+                          f"travel range {geom.limits[bad].tolist()} deg in "
+                          f"{MAX_LIMIT_REDRAWS} redraws")
+    return sample
 
 
 def check_angles(geom, angles, what: str | None = None) -> np.ndarray:
@@ -191,16 +207,21 @@ def check_angles(geom, angles, what: str | None = None) -> np.ndarray:
 
 def check_limits(geom, angles: np.ndarray, ids, what: str | None = None) -> None:
     """Raise TargetError for the first NaN or out-of-limit angle of ``angles`` (m, 2) deg,
-    whose rows belong to robots ``ids`` (m,); ``what`` prefixes the message."""
-    spec = geom.spec
+    whose rows belong to robots ``ids`` (m,); each robot has its own range
+    (:attr:`rfp_twin.models.array.ArrayGeometry.limits`); ``what`` prefixes the message."""
     prefix = f"{what}: " if what else ""
-    for axis, col, (lo, hi) in (("alpha", 0, spec.alpha_limits_deg), ("beta", 1, spec.beta_limits_deg)):
+    ids = np.asarray(ids, dtype=np.int64).reshape(-1)
+    rows = np.arange(geom.n_robots) if np.array_equal(ids, geom.robot_ids) else \
+        np.array([geom.layout.robot_index(int(r)) for r in ids], dtype=np.int64)
+    lim = geom.limits[rows]
+    for axis, col in (("alpha", 0), ("beta", 1)):
         v = angles[:, col]
+        lo, hi = lim[:, 2 * col], lim[:, 2 * col + 1]
         bad = np.flatnonzero(~np.isfinite(v) | (v < lo) | (v > hi))
         if bad.size:
             k = int(bad[0])
             raise TargetError(f"{prefix}robot {int(ids[k])}: field '{axis}' = "
-                              f"{float(v[k])!r}; allowed: [{lo}, {hi}] deg")
+                              f"{float(v[k])!r}; allowed: [{float(lo[k])}, {float(hi[k])}] deg")
 
 
 def _first_overlap(clearance: np.ndarray, pairs: np.ndarray):

@@ -35,7 +35,8 @@ import numpy as np
 from rfp_twin.models.errors import RfpError, TrajectoryError
 from rfp_twin.models.kinematics import forward, forward_fiber
 from rfp_twin.models.layout import Layout
-from rfp_twin.models.layout.columns import FIBER_COLUMNS, robot_column, robot_fibers
+from rfp_twin.models.layout.columns import (FIBER_COLUMNS, robot_column, robot_fibers,
+                                            robot_joint_limits)
 from rfp_twin.models.robot import RobotSpec
 from rfp_twin.planners.plan import Plan
 from rfp_twin.models.trajectory import AXES, Trajectory
@@ -179,7 +180,8 @@ def load_run(run: str | Path, to_fold: bool = False) -> tuple[RobotSpec, Layout,
 
 def check_run_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, source: Path) -> None:
     """Raise TrajectoryError unless ``traj`` moves exactly the layout's robots and every
-    breakpoint angle lies within the spec's joint limits (deg); the message names the
+    breakpoint angle lies within its robot's joint limits (model deg: the spec's shifted by
+    the robot's encoder offsets, :func:`robot_joint_limits`); the message names the
     file, the robot, the axis, the value and the allowed range."""
     ids = np.asarray(traj.robot_ids)
     robots = layout.robot_ids
@@ -191,8 +193,11 @@ def check_run_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, sour
     if missing.size:
         raise TrajectoryError(f"{source}: robot {int(missing[0])} of the layout has no trajectory "
                               f"({missing.size} robot(s) missing)")
-    for ax, (lo, hi) in enumerate((spec.alpha_limits_deg, spec.beta_limits_deg)):
+    limits = robot_joint_limits(spec, layout)
+    row = {int(r): k for k, r in enumerate(robots)}
+    for ax in range(2):
         for i, angles in enumerate(traj.angles[ax]):
+            lo, hi = (float(v) for v in limits[row[int(ids[i])], 2 * ax:2 * ax + 2])
             bad = np.flatnonzero((angles < lo) | (angles > hi))
             if bad.size:
                 raise TrajectoryError(

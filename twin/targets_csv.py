@@ -26,7 +26,7 @@ from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import TargetError
 from rfp_twin.models.geometry.dimensions import SDSS_V_DEFAULTS
 from rfp_twin.models.kinematics import inverse, inverse_fiber
-from rfp_twin.models.layout.columns import FIBER_COLUMNS, FIBERS, robot_fibers
+from rfp_twin.models.layout.columns import FIBER_COLUMNS, FIBERS, fit_to_limits, robot_fibers
 
 ANGLE_COLUMNS = ("alpha_deg", "beta_deg")
 XY_COLUMNS = ("x_mm", "y_mm")
@@ -96,9 +96,26 @@ def read_targets_csv(path: str | Path, geom: ArrayGeometry) -> np.ndarray:
         vals = wok_to_plane(vals)
     has_fibers = any(c in geom.layout.extra for c in FIBER_COLUMNS["metrology"])
     if not has_fibers and not np.any(fiber_of != ""):
-        return inverse(geom.base_xy, vals, spec.alpha_length_mm, spec.beta_length_mm,
-                       right_arm=True, ids=geom.robot_ids)
-    return _solve_fibers(path, geom, vals, fiber_of, line_of)
+        angles = inverse(geom.base_xy, vals, spec.alpha_length_mm, spec.beta_length_mm,
+                         right_arm=True, ids=geom.robot_ids)
+    else:
+        angles = _solve_fibers(path, geom, vals, fiber_of, line_of)
+    return _into_limits(path, geom, angles, line_of)
+
+
+def _into_limits(path: Path, geom: ArrayGeometry, angles: np.ndarray,
+                 line_of: np.ndarray) -> np.ndarray:
+    """``angles`` (n, 2) deg with alpha turned into each robot's travel range; a pose whose
+    beta falls outside the robot's range (encoder offsets shift it) is out of its reach:
+    TargetError naming the file line, the robot and the range."""
+    fitted, inside = fit_to_limits(angles, geom.limits)
+    if not inside.all():
+        k = int(np.flatnonzero(~inside)[0])
+        lo, hi = geom.limits[k, 2:4]
+        raise TargetError(f"{path}:{int(line_of[k])}: robot {int(geom.robot_ids[k])}: the target "
+                          f"needs beta = {fitted[k, 1]:.4f} deg; allowed: [{lo:g}, {hi:g}] deg "
+                          "(its travel range in model angles, shifted by its encoder offsets)")
+    return fitted
 
 
 def _solve_fibers(path: Path, geom: ArrayGeometry, xy: np.ndarray, fiber_of: np.ndarray,

@@ -216,6 +216,38 @@ def robot_axes(layout) -> np.ndarray:
     return k / norm[:, None]
 
 
+def robot_joint_limits(spec, layout) -> np.ndarray:
+    """(n_robots, 4) float64 travel range of each robot in model angles, deg:
+    ``(alpha_lo, alpha_hi, beta_lo, beta_hi)``. The spec's ranges are the firmware's, in
+    encoder angles; a robot whose encoder zero sits at ``alpha_offset_deg`` /
+    ``beta_offset_deg`` (model = encoder + offset) has them shifted by its offsets.
+    Blank offsets: the spec's ranges, bit for bit."""
+    lim = np.array([*spec.alpha_limits_deg, *spec.beta_limits_deg], dtype=np.float64)
+    out = np.tile(lim, (layout.n_robots, 1))
+    for name, cols in (("alpha_offset_deg", (0, 1)), ("beta_offset_deg", (2, 3))):
+        if name in layout.extra:
+            off = robot_column(layout, name, 0.0)
+            out[:, cols[0]] += off
+            out[:, cols[1]] += off
+    return out
+
+
+def fit_to_limits(angles: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Configurations moved into each robot's travel range where a turn of alpha allows.
+
+    angles : (n, 2) float64 (alpha, beta) deg; limits : (n, 4) float64 from
+    :func:`robot_joint_limits`. Returns ``(fitted, inside)``: alpha shifted by a whole
+    number of turns to the lowest value >= ``alpha_lo`` (the same arm pose), beta
+    unchanged; ``inside`` (n,) bool where the fitted row is within both ranges (a beta
+    outside its range cannot be fixed: that pose is out of the robot's reach)."""
+    a = np.array(angles, dtype=np.float64, copy=True).reshape(-1, 2)
+    lo = limits[:, 0]
+    a[:, 0] = lo + np.mod(a[:, 0] - lo, 360.0)
+    inside = ((a[:, 0] <= limits[:, 1]) & (a[:, 1] >= limits[:, 2])
+              & (a[:, 1] <= limits[:, 3]))
+    return a, inside
+
+
 def robot_frame_origins(layout, fiber_z_mm: float) -> np.ndarray:
     """(n_robots, 3) float64 origin of each robot's frame, mm: the point of its alpha axis
     ``fiber_z_mm`` below its focal-surface point ``(x, y, z_mm)`` (the robot stands on its

@@ -11,7 +11,8 @@ Units inside the model: mm, kg, s, radians. One body tree per robot::
 plus ``fid<id>`` static bodies for the obstacles (fiducials and guide-camera edges). Each
 hinge has a position actuator (``r<id>_alpha`` / ``r<id>_beta``) with gains from
 :class:`ServoParams` for the joint's inertia (armature + link) and a torque limit; joint
-ranges are the spec's travel limits. Visual geoms use the ``visual`` default class (the
+ranges are each robot's travel limits (the spec's, shifted by its encoder offsets:
+:func:`rfp_twin.models.layout.columns.robot_joint_limits`). Visual geoms use the ``visual`` default class (the
 link's watertight trimesh), collision geoms the ``collision`` class (its convex pieces), as
 mujoco_menagerie does.
 
@@ -52,7 +53,8 @@ import trimesh
 from rfp_twin.models.geometry import RobotGeometry
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.layout.columns import (FIBERS, obstacle_arrays, robot_axes, robot_column,
-                                            robot_fibers, robot_frame_origins)
+                                            robot_fibers, robot_frame_origins,
+                                            robot_joint_limits)
 from rfp_twin.models.mjcf.options import (BIT_ALPHA, BIT_BETA, COLLISION_CLASS, COLLISION_GROUP,
                                  DEFAULT_FIBER_RGBA, FIBER_RGBA, MNM, RGBA, VISUAL_CLASS,
                                  VISUAL_GROUP, ServoParams, fiducial_name, robot_name)
@@ -238,6 +240,7 @@ def add_grid(s: mujoco.MjSpec, spec: RobotSpec, layout: Layout, geometry: RobotG
                        list(np.radians(spec.beta_limits_deg)), vis_mesh["beta"],
                        col_mesh["beta"], BIT_BETA, BIT_BETA)
     world = s.worldbody
+    limits = robot_joint_limits(spec, layout)     # (n, 4) each robot's range, model deg
 
     for k, rid in enumerate(layout.robot_ids):
         rid = int(rid)
@@ -248,9 +251,11 @@ def add_grid(s: mujoco.MjSpec, spec: RobotSpec, layout: Layout, geometry: RobotG
             base.quat = list(frames.quat[k])
         base.add_geom(default=vis, name=robot_name(rid, "body"), meshname=vis_mesh["body"],
                       material="body")
-        alpha_body = _add_moving_link(base, rid, alpha, servo.armature_kg_mm2, vis, col)
+        alpha_body = _add_moving_link(base, rid, alpha, servo.armature_kg_mm2, vis, col,
+                                      range_rad=list(np.radians(limits[k, 0:2])))
         beta_body = _add_moving_link(alpha_body, rid, beta, servo.armature_kg_mm2, vis, col,
-                                     pos=[la, *beta.pos[1:]])
+                                     pos=[la, *beta.pos[1:]],
+                                     range_rad=list(np.radians(limits[k, 2:4])))
         for c, (fname, _, _) in enumerate(p.fibers):
             fx, fy = (float(v) for v in frames.fibers[k, c])
             if math.isnan(fx):
@@ -293,9 +298,10 @@ def _add_wall(body, name: str, centre, half, quat, vis, col) -> None:
 
 
 def _add_moving_link(parent, rid: int, link: _MovingLink, armature: float, vis, col,
-                     pos: list | None = None):
+                     pos: list | None = None, range_rad: list | None = None):
     """Robot ``rid``'s alpha or beta body under ``parent`` (at ``pos`` mm, default
-    ``link.pos``): inertial, hinge about z, visual geom and collision geoms. Returns the body."""
+    ``link.pos``): inertial, hinge about z with range ``range_rad`` (default
+    ``link.range_rad``), visual geom and collision geoms. Returns the body."""
     body = parent.add_body(name=robot_name(rid, link.name), pos=link.pos if pos is None else pos)
     mass, com, full = link.inertial
     body.explicitinertial = True
@@ -303,7 +309,8 @@ def _add_moving_link(parent, rid: int, link: _MovingLink, armature: float, vis, 
     body.ipos = list(com)
     body.fullinertia = list(full)
     body.add_joint(name=robot_name(rid, link.name), type=mujoco.mjtJoint.mjJNT_HINGE,
-                   axis=[0.0, 0.0, 1.0], range=link.range_rad,
+                   axis=[0.0, 0.0, 1.0],
+                   range=link.range_rad if range_rad is None else range_rad,
                    limited=mujoco.mjtLimited.mjLIMITED_TRUE, armature=armature)
     body.add_geom(default=vis, name=robot_name(rid, f"{link.name}_visual"),
                   meshname=link.visual_mesh, material=link.name)

@@ -10,8 +10,9 @@ Angles: the public API is in degrees, radians inside the kernel. Alpha is integr
 a continuous angle by default (the field is 360-periodic in alpha and the papers'
 robots have no alpha stop), so a path may leave [0, 360) (``ApfResult.alpha_out_of_limits``
 counts the robots whose path did); ``enforce_alpha_limits=True`` clamps alpha to the
-spec's limits instead (robots may then stall against a stop). Beta is always clamped to
-the spec's beta limits. The descent may end on either arm branch (the "faster
+robot's limits instead (robots may then stall against a stop). Beta is always clamped to
+the robot's beta limits (each robot's range: the spec's, shifted by its encoder offsets,
+:attr:`rfp_twin.models.array.ArrayGeometry.limits`). The descent may end on either arm branch (the "faster
 configuration" of Makarem 2014 Sect. 4): the goal is the tip position.
 
 Per-robot geometry: the kernel gets each robot's alpha length, beta segment and buffer
@@ -106,7 +107,7 @@ def plan_apf(geom: ArrayGeometry, start, targets, settings: ApfSettings | None =
     geom : ArrayGeometry
         Layout, spec and buffer (the buffer matters in segment mode only).
     start, targets : (n, 2) float, deg
-        (alpha, beta) per robot, within the spec's limits. Rows of robots that cannot
+        (alpha, beta) per robot, within each robot's limits. Rows of robots that cannot
         move are ignored in ``targets``.
     settings : ApfSettings (default: the paper's tip model)
     movable : (n,) bool, optional
@@ -169,8 +170,7 @@ def plan_apf(geom: ArrayGeometry, start, targets, settings: ApfSettings | None =
     dt = settings.dt_s
     max_steps = int(math.ceil(settings.max_time_s / dt - 1e-9))
     stall_steps = max(1, int(round(settings.stall_window_s / dt)))
-    blo, bhi = spec.beta_limits_deg
-    alo, ahi = spec.alpha_limits_deg
+    alo, ahi, blo, bhi = (np.ascontiguousarray(geom.limits[:, c]) for c in range(4))
     t0 = time.perf_counter()
     (k, stop, th, ev_r, ev_a, ev_s, ev_v, n_ev, stats, settle, err, th_min, th_max) = run_apf(
         geom.base_xy, th0, np.ascontiguousarray(targets * DEG), np.ascontiguousarray(target_xy),

@@ -117,7 +117,8 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
         uses ``d + ex[i] + ex[j]`` and ``D + ex[i] + ex[j]``, robot i and obstacle f
         ``d_f + ex[i] + fex[f]`` and ``D_f + ex[i] + fex[f]``
     l1, l2, l3 : field weights; gain : 1/s factor on u; w_a, w_b : saturation speeds (rad/s)
-    beta_lo, beta_hi, alpha_lo, alpha_hi : joint limits (rad); clamp_alpha : bool
+    beta_lo, beta_hi, alpha_lo, alpha_hi : (n,) float64 each robot's joint limits (rad);
+        clamp_alpha : bool
     dt : Euler step (s); tol : convergence distance; max_steps, stall_steps : ints
     stall_rad, band_sin, axis_r, implicit, guard, simp_tol : see ApfSettings
     cap : initial breakpoint buffer size
@@ -335,15 +336,15 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                 if first or frac[i] < 1.0:
                     a = th[i, 0] + frac[i] * dt * u[i, 0]
                     b = th[i, 1] + frac[i] * dt * u[i, 1]
-                    if b < beta_lo:
-                        b = beta_lo
-                    elif b > beta_hi:
-                        b = beta_hi
+                    if b < beta_lo[i]:
+                        b = beta_lo[i]
+                    elif b > beta_hi[i]:
+                        b = beta_hi[i]
                     if clamp_alpha:
-                        if a < alpha_lo:
-                            a = alpha_lo
-                        elif a > alpha_hi:
-                            a = alpha_hi
+                        if a < alpha_lo[i]:
+                            a = alpha_lo[i]
+                        elif a > alpha_hi[i]:
+                            a = alpha_hi[i]
                     prop[i, 0] = a
                     prop[i, 1] = b
             _pose(base, prop, la, Q)

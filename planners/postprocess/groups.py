@@ -49,7 +49,8 @@ def time_and_simplify(path: SmoothPath, robots: np.ndarray, vmax, amax, tol_robo
     """Time the group ``robots`` (k,), sample it and simplify every axis.
 
     ``vmax``, ``amax`` (2,) axis limits, deg/s and deg/s^2; ``tol_robot`` (n,) RDP
-    tolerance per robot, deg; the keywords as :func:`rfp_twin.planners.postprocess.postprocess`.
+    tolerance per robot, deg; ``limits`` (n, 2, 2) each robot's joint limits (robot,
+    axis, lo/hi), deg; the other keywords as :func:`rfp_twin.planners.postprocess.postprocess`.
     """
     law = time_group(path, robots, vmax, amax, grid_steps=grid_steps, backend=backend,
                      moving_range=moving_range)
@@ -69,7 +70,7 @@ def time_and_simplify(path: SmoothPath, robots: np.ndarray, vmax, amax, tol_robo
     if limits is not None:
         # the smoothed path is an average of in-limit angles; the local windows' sum of
         # components can round a hair outside (-2e-14 deg at a 0 deg limit)
-        Y = np.clip(Y, np.tile(limits[:, 0], k), np.tile(limits[:, 1], k))
+        Y = np.clip(Y, limits[robots, :, 0].ravel(), limits[robots, :, 1].ravel())
     tol = np.repeat(tol_robot[robots], 2)
     keep, used = simplify_columns(t, Y, tol, max_points)
     # limits on the piecewise-linear product; a uniform slow-down fixes any excess

@@ -195,7 +195,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         raise field_error(SpecError, "plan.robot_ids", f"{plan.n_robots} robots",
                           f"the {geom.n_robots} robots of the layout, in layout order", "postprocess")
     n = plan.n_robots
-    joint_limits = np.array([spec.alpha_limits_deg, spec.beta_limits_deg], dtype=np.float64)
+    joint_limits = geom.limits.reshape(n, 2, 2)     # each robot's (axis, lo/hi), model deg
     plan = _within_limits(plan, joint_limits)
     verify_buffer = buffer_mm - budget_mm
     stages = {"smooth": 0.0, "group": 0.0, "time": 0.0, "simplify": 0.0, "verify": 0.0}
@@ -347,22 +347,25 @@ LIMIT_ROUNDING_DEG = 1e-9
 
 
 def _within_limits(plan: Plan, limits: np.ndarray) -> Plan:
-    """The plan with its breakpoints clipped to the joint limits (2, 2) deg.
+    """The plan with its breakpoints clipped to each robot's joint limits ``limits``
+    (n, 2, 2) deg (robot, axis, lo/hi).
 
     Only rounding (``LIMIT_ROUNDING_DEG``) is clipped, as post-processing clips its samples
     to remove the rounding of the smoothing sums; a plan that really leaves the limits
     (e.g. a field planner without alpha stops) is refused, naming the robot.
     """
+    owner = np.repeat(np.arange(plan.n_robots), np.diff(plan.path_ptr))
+    lim = limits[owner]                                   # (breakpoints, 2, 2)
     for ax, name in enumerate(("alpha", "beta")):
         a = plan.path_angles[:, ax]
-        lo, hi = limits[ax]
+        lo, hi = lim[:, ax, 0], lim[:, ax, 1]
         bad = np.flatnonzero((a < lo - LIMIT_ROUNDING_DEG) | (a > hi + LIMIT_ROUNDING_DEG))
         if bad.size:
-            robot = int(np.searchsorted(plan.path_ptr, bad[0], side="right") - 1)
-            raise field_error(SpecError, f"plan {name}", f"{a[bad[0]]:.4f} deg",
-                              f"[{lo:g}, {hi:g}] deg (the spec's {name} limits)",
-                              f"postprocess, robot {int(plan.robot_ids[robot])}")
-    clipped = np.clip(plan.path_angles, limits[:, 0], limits[:, 1])
+            k = int(bad[0])
+            raise field_error(SpecError, f"plan {name}", f"{a[k]:.4f} deg",
+                              f"[{lo[k]:g}, {hi[k]:g}] deg (the robot's {name} limits)",
+                              f"postprocess, robot {int(plan.robot_ids[owner[k]])}")
+    clipped = np.clip(plan.path_angles, lim[:, :, 0], lim[:, :, 1])
     if np.array_equal(clipped, plan.path_angles):
         return plan
     return replace(plan, path_angles=clipped)

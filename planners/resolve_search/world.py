@@ -25,6 +25,8 @@ Units: mm and degrees; time unit = one planner step (``step_s`` seconds).
 """
 from __future__ import annotations
 
+from functools import partial
+
 import math
 
 import numpy as np
@@ -59,8 +61,8 @@ class AlphaBetaWorld:
         self.movable = np.asarray(movable, dtype=bool)
         self.md = float(md)
         self.step_deg = float(step_deg)
-        spec = geom.spec
-        self.limits = np.array([*spec.alpha_limits_deg, *spec.beta_limits_deg], dtype=np.float64)
+        #: (n, 4) each robot's travel range, model deg
+        self.limits = np.ascontiguousarray(geom.limits)
         #: robot index -> (obstacle robot indices, collisions met) of its latest arm
         self.hits: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
@@ -185,7 +187,7 @@ class AlphaBetaWorld:
         pt_th = pt_th + self.md
         st_seg = np.ascontiguousarray(np.vstack([st_seg, ob_seg]))
         st_th = np.concatenate([st_th, ob_th + self.md])
-        l_alpha, s0, limits = float(g.alpha_len[i]), float(g.seg_start[i]), self.limits
+        l_alpha, s0, limits = float(g.alpha_len[i]), float(g.seg_start[i]), self.limits[i]
         hits = np.zeros(len(movers), dtype=np.int64)
         self.hits[i] = (np.array(movers, dtype=np.int64), hits)
 
@@ -204,18 +206,19 @@ class AlphaBetaWorld:
         v = np.full(2, self.step_deg)
         return Arm(start=np.asarray(start, dtype=np.float64), goal=np.asarray(goal, dtype=np.float64),
                    vmax=v, forbidden=forbidden, collides=collides,
-                   lower=self.limits[[0, 2]].copy(), upper=self.limits[[1, 3]].copy(),
+                   lower=limits[[0, 2]].copy(), upper=limits[[1, 3]].copy(),
                    t_start=float(t_start), hold_until=float(t_last), t_static=float(t_last),
-                   via=self.via)
+                   via=partial(self.via, robot=i))
 
-    def via(self, start: np.ndarray, goal: np.ndarray) -> list[np.ndarray]:
+    def via(self, start: np.ndarray, goal: np.ndarray, robot: int) -> list[np.ndarray]:
         """Extra roadmap paths: retract beta fully, turn alpha, then go to the goal.
 
         A beta arm folded over its own axis (beta = 180 deg) sweeps the smallest disk
         when alpha turns (at 3.5 mm a robot at beta = 170 deg cannot turn past a folded
         neighbour, at 180 deg it can). Paths: ``start -> (alpha_s, 180) -> (alpha_g, 180)
-        -> goal`` and, if the goal's beta is not 180, the same with the goal's beta.
+        -> goal`` and, if the goal's beta is not 180, the same with the goal's beta (180
+        clipped to the robot's beta range).
         """
-        b_fold = float(np.clip(180.0, self.limits[2], self.limits[3]))
+        b_fold = float(np.clip(180.0, self.limits[robot, 2], self.limits[robot, 3]))
         out = [np.array([[start[0], b_fold], [goal[0], b_fold]])]
         return out

@@ -145,7 +145,8 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
     alpha_len, seg_start : float or (n,) float64, each robot's alpha arm and the start of
         its beta collision segment, mm
     seg_end, buffer : float or (n,) float64, end of each robot's segment and its buffer, mm
-    limits : (4,) float64 (alpha_lo, alpha_hi, beta_lo, beta_hi), deg
+    limits : (4,) or (n, 4) float64 (alpha_lo, alpha_hi, beta_lo, beta_hi), deg: one
+        range for all or each robot's (:attr:`rfp_twin.models.array.ArrayGeometry.limits`)
     step_deg : float; max_steps : int; md : float, step-rule margin MD, mm
         (:func:`rfp_twin.planners.stepwise.moves.array_max_displacement`)
     greed : (n,) float64 in [0, 1]; phobia : float in [0, 1]; greed 1 and phobia 0
@@ -169,8 +170,8 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
     return run_stepwise_arrays(
         base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx,
         fid_xy, fid_end_xy, _per_item(fid_buffer, m), _per_item(alpha_len, n),
-        _per_item(seg_start, n), _per_item(seg_end, n), _per_item(buffer, n), limits,
-        step_deg, max_steps, md, greed, phobia, seed, ev_robot, ev_step, ev_angles, cur)
+        _per_item(seg_start, n), _per_item(seg_end, n), _per_item(buffer, n),
+        _per_item(limits, n, (4,)), step_deg, max_steps, md, greed, phobia, seed, ev_robot, ev_step, ev_angles, cur)
 
 
 @njit(cache=True)
@@ -182,7 +183,8 @@ def run_stepwise_arrays(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dis
 
     Arguments as in :func:`run_stepwise`, except: ``fid_end_xy`` (m, 2) float64 mm (equal
     to ``fid_xy`` for a point obstacle), ``fid_buffer`` (m,) float64 mm, ``alpha_len``,
-    ``seg_start``, ``seg_end``, ``buffer`` (n,) float64 mm. Returns (n_events, n_steps).
+    ``seg_start``, ``seg_end``, ``buffer`` (n,) float64 mm, ``limits`` (n, 4) float64 deg.
+    Returns (n_events, n_steps).
     """
     greedy, n_left, rng_state, par, rs, near, sched, scratch = new_state(
         base_xy, start, dest, movable, nbr_ptr, alpha_len, seg_start, seg_end,
@@ -211,10 +213,6 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_le
     last, home, asleep_at, moved_at, home_until, free_until = sched
     cand, cost, score_of, order = scratch
     n = base_xy.shape[0]
-    a_lo = limits[0]
-    a_hi = limits[1]
-    b_lo = limits[2]
-    b_hi = limits[3]
     n_moves = 1
     n_ev = 0
     step = 0
@@ -243,6 +241,10 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_le
             bx = base_xy[i, 0]
             by = base_xy[i, 1]
             s1 = seg_end[i]
+            a_lo = limits[i, 0]
+            a_hi = limits[i, 1]
+            b_lo = limits[i, 2]
+            b_hi = limits[i, 3]
 
             if home[i]:
                 # MC only (Eq. 10): stay unless a neighbour encroaches

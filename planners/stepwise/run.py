@@ -74,9 +74,8 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
         most once a step), up to :data:`MAX_EVENTS`; the buffers are allocated untouched,
         so only the breakpoints written take memory]
     """
-    spec = geom.spec
     n = geom.n_robots
-    limits = np.array([*spec.alpha_limits_deg, *spec.beta_limits_deg], dtype=np.float64)
+    limits = geom.limits
     if cap is None:
         cap = min(n * (int(max_steps) + 1), MAX_EVENTS)
     cap = max(1, int(cap))

@@ -263,3 +263,15 @@ def test_fiber_error_uses_each_robots_arm():
     assert err0 == pytest.approx([math.sqrt(2) * radius(LA)] * 7, abs=1e-9)
     assert err[0] == pytest.approx(math.sqrt(2) * radius(9.0), abs=1e-9)
     assert err[1:] == pytest.approx(err0[1:], abs=1e-12)
+
+
+def test_joint_ranges_are_each_robots_own():
+    """Encoder offsets shift a robot's joint range (model angles); others keep the spec's."""
+    twin = build_model(SPEC, hex7(alpha_offset_deg=[-30.0] + [""] * 6,
+                                  beta_offset_deg=["", 4.5] + [""] * 5))
+    m, idx = twin.model, twin.index
+    a, b = np.radians(SPEC.alpha_limits_deg), np.radians(SPEC.beta_limits_deg)
+    assert m.jnt_range[idx.alpha_joint[0]] == pytest.approx(a - np.radians(30.0), abs=1e-12)
+    assert m.jnt_range[idx.beta_joint[1]] == pytest.approx(b + np.radians(4.5), abs=1e-12)
+    assert m.jnt_range[idx.beta_joint[0]] == pytest.approx(b, abs=0)
+    assert np.all(m.jnt_range[idx.alpha_joint[1:]] == a)

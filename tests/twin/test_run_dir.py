@@ -35,3 +35,29 @@ def test_written_fiber_positions_use_each_robots_metrology_fiber():
     xy = fiber_positions(spec, lay, angles)
     reach = cal.alpha_len + cal.fibers[:, 0, 0]
     np.testing.assert_allclose(xy - lay.robot_xy, np.column_stack([reach, 0.0 * reach]), atol=1e-12)
+
+
+def test_a_run_is_checked_against_each_robots_own_range(tmp_path):
+    """Robot 0's encoder zero sits at alpha -30 (range [-30, 330] in model angles): a
+    trajectory through alpha -20 is legal for it, the same on a robot without an offset is
+    refused, naming the file, the robot and the range."""
+    import pytest
+
+    from rfp_twin.models.errors import TrajectoryError
+    from rfp_twin.twin.run_dir import check_run_trajectory
+
+    spec = load_spec("sdss-v")
+    g = Layout.hex_grid(1, spec.pitch_mm)
+    lay = Layout(g.ids, g.xy, g.kinds, name="t",
+                 extra={"alpha_offset_deg": ["-30"] + [""] * 6})
+    ids = lay.robot_ids
+    alpha = [[10.0, -20.0]] + [[10.0, 10.0]] * 6
+    traj = Trajectory.from_breakpoints(ids, [[0.0, 1.0]] * 7, alpha, [[0.0, 1.0]] * 7,
+                                       [[170.0, 170.0]] * 7)
+    check_run_trajectory(traj, spec, lay, tmp_path / "trajectories.json")
+    with pytest.raises(TrajectoryError, match=r"trajectories.json: robot 0: field 'alpha' = "
+                                              r"-20.0 deg at t = 1 s; allowed: \[0, 360\] deg"):
+        check_run_trajectory(traj, spec, g, tmp_path / "trajectories.json")
+    moved = Layout(g.ids, g.xy, g.kinds, name="t", extra={"alpha_offset_deg": [""] + ["-30"] * 6})
+    with pytest.raises(TrajectoryError, match=r"robot 0: .*allowed: \[0, 360\]"):
+        check_run_trajectory(traj, spec, moved, tmp_path / "trajectories.json")
