@@ -4,7 +4,9 @@ Names: ``sdss-v-fps`` (the SDSS-V design focal plane: 500 robots, 60 fiducials),
 calibrated instruments ``sdss-v-apo``, ``sdss-v-lco``, ``sdss-v-curved``
 (:mod:`rfp_twin.models.instrument`) or a calibration folder,
 ``sdss-v-547`` (the all-robot 13-ring grid of Sayres 2021 Sect. 3.2), ``hex:N`` (a
-centred hex grid of N positions: 7, 19, 37, 61, 91, ...) or the path of a layout CSV.
+centred hex grid of N positions: 7, 19, 37, 61, 91, ...), ``raft:N`` / ``raft:R=600`` (N
+triangular rafts of 63 robots, Spec-S5, or every raft inside a radius in mm:
+:mod:`rfp_twin.models.layout.rafts`) or the path of a layout CSV.
 Pitch in mm; fiducial ids turn positions of a generated grid into fiducials. A bad name
 raises :class:`rfp_twin.models.errors.LayoutError` (an unknown fiducial id
 :class:`rfp_twin.models.errors.UnknownRobotError`) with a one-line message.
@@ -34,7 +36,8 @@ def layout_by_name(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = (
     ``sdss-v-apo`` / ``sdss-v-lco`` / ``sdss-v-curved`` (calibrated instruments, or the path
     of a calibration folder: :func:`rfp_twin.models.instrument.instrument_layout`), ``sdss-v-547``
     (the paper's all-robot grid), ``hex:N`` (a hex grid of N positions: 7, 19, 37, 61, 91,
-    ...), or a CSV path.
+    ...), ``raft:N`` / ``raft:R=MM`` / ``raft:N,robots=75,side=80,gap=2,pitch=6.2`` (rafts:
+    :func:`rfp_twin.models.layout.rafts.raft_from_name`), or a CSV path.
 
     Parameters
     ----------
@@ -75,6 +78,9 @@ def layout_by_name(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = (
             kinds[np.isin(grid.ids, fiducial_ids)] = "fiducial"
             grid = Layout(grid.ids, grid.xy, kinds, name=grid.name)
         return grid
+    if name == "raft" or name.startswith("raft:"):
+        from rfp_twin.models.layout.rafts import raft_from_name  # raft:N, raft:R=600, ...
+        return raft_from_name(name, pitch_mm)
     path = Path(name)
     if path.suffix.lower() != ".csv" and not path.exists():
         raise LayoutError(f"layout {name!r}: allowed: {', '.join(FIXED_LAYOUTS)}, sdss-v-547, "

@@ -2,7 +2,8 @@
 
 One module per group of commands: ``plan`` (:mod:`rfp_twin.twin.cli.plan`), ``simulate``,
 ``render``, ``record``, ``model export`` (:mod:`rfp_twin.twin.cli.run`), ``validate``,
-``calibrate-buffer`` (:mod:`rfp_twin.twin.cli.validate`), ``study ...`` (:mod:`rfp_twin.twin.cli.study`).
+``calibrate-buffer`` (:mod:`rfp_twin.twin.cli.validate`), ``study ...`` (:mod:`rfp_twin.twin.cli.study`),
+``coverage`` (:mod:`rfp_twin.twin.cli.coverage`).
 Every error is one line and an exit code from :mod:`rfp_twin.twin.cli.console`; nothing
 half-written is left behind.
 """
@@ -12,6 +13,7 @@ import typer
 
 from rfp_twin.twin.cli import plan as _plan
 from rfp_twin.twin.cli import run as _run
+from rfp_twin.twin.cli.coverage import coverage as _coverage
 from rfp_twin.twin.cli.console import run_app
 from rfp_twin.twin.cli.study import study_app
 from rfp_twin.twin.cli.validate import register as _register_validation
@@ -26,6 +28,7 @@ def _root() -> None:
 
 
 app.command()(_plan.plan)
+app.command()(_coverage)
 app.command()(_run.simulate)
 app.command()(_run.render)
 app.command()(_run.record)
