@@ -197,11 +197,44 @@ def window_for_limits(max_speed, max_accel, step_deg: float) -> float:
 
 
 def plan_deviation(plan: Plan, path: SmoothPath, stride: int = 1) -> np.ndarray:
-    """(n, 2) largest |smoothed - plan| per robot and axis over the plan's steps, deg."""
+    """(n, 2) largest |smoothed - plan| per robot and axis over the plan's steps
+    (every ``stride``-th step), deg. One pass per robot, no (steps, n)
+    arrays: memory stays linear in robots whatever the plan's length."""
     steps = np.arange(0, plan.n_steps + 1, max(1, int(stride)), dtype=np.float64)
-    raw = plan.angles_at(steps)
-    sm = path.evaluate(steps + path.pad_steps)
-    return np.abs(sm - raw).max(axis=0)
+    out = np.zeros((plan.n_robots, 2))
+    _max_deviation(np.asarray(plan.path_ptr, dtype=np.int64),
+                   np.asarray(plan.path_step, dtype=np.float64),
+                   np.ascontiguousarray(plan.path_angles, dtype=np.float64),
+                   path.ptr, path.knots, path.coef, float(path.pad_steps), steps, out)
+    return out
+
+
+@njit(cache=True)
+def _max_deviation(pptr, pstep, pang, ptr, knots, coef, pad, steps, out):
+    """``out[i, ax]`` = max over ``steps`` of |path(i, step + pad) - plan(i, step)|; the
+    plan is piecewise linear between its breakpoints and held outside them."""
+    buf = np.empty(2)
+    for i in range(pptr.size - 1):
+        b0 = pptr[i]
+        b1 = pptr[i + 1]
+        cur = b0
+        for j in range(steps.size):
+            x = steps[j]
+            eval_robot(ptr, knots, coef, i, x + pad, 0, buf)
+            while cur + 1 < b1 and pstep[cur + 1] <= x:
+                cur += 1
+            for ax in range(2):
+                if b1 - b0 < 2 or x <= pstep[b0]:
+                    raw = pang[b0, ax]
+                elif cur + 1 >= b1:
+                    raw = pang[b1 - 1, ax]
+                else:
+                    h = pstep[cur + 1] - pstep[cur]
+                    f = (x - pstep[cur]) / h if h > 0.0 else 1.0
+                    raw = pang[cur, ax] + f * (pang[cur + 1, ax] - pang[cur, ax])
+                d = abs(buf[ax] - raw)
+                if d > out[i, ax]:
+                    out[i, ax] = d
 
 
 # =====================================================================================

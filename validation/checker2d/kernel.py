@@ -1,4 +1,4 @@
-"""The dense 2D check of every candidate pair: one numba kernel, :func:`check_pairs`.
+"""The dense 2D check of every candidate pair: :func:`check_pairs` (numba, pairs in parallel).
 
 Inputs are plain arrays: per pair ``(i, j)`` robot indices (``j = -1`` for an obstacle,
 the segment ``(fx, fy)``-``(ex, ey)``, mm, a point when both ends are equal) and its
@@ -63,7 +63,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from rfp_twin.validation.numerics import (STACK, beta_segment, interp_angle, max_rate, push,
                                  push_halves, segment_distance)
@@ -148,6 +148,168 @@ def _flush(coll, nc, run, p):
 
 
 @njit(cache=True)
+def _check_pair(p, pi, pj, pfx, pfy, pex, pey, thr, bx, by, la, s0, s1, rmax,
+                pa, ta, aa, ra, pb, tb, ab, rb, vglob, vmean,
+                t_lo, t_hi, slack, resolution, tol, rel_tol, st, run, coll, nc, record):
+    """The dense check of pair ``p`` (arguments as :func:`check_pairs`; ``st`` (STACK, 4)
+    and ``run`` (6,) scratch). With ``record`` its collision runs are appended to ``coll``
+    (from row ``nc``); without, only whether it has any is returned.
+
+    Returns (pair minimum mm, its time s, samples taken, coll, nc, any collision).
+    """
+    span = t_hi - t_lo
+    i = pi[p]
+    j = pj[p]
+    fx = pfx[p]
+    fy = pfy[p]
+    ex = pex[p]
+    ey = pey[p]
+    th = thr[p]
+    lg = vglob[i] + (vglob[j] if j >= 0 else 0.0)
+    lm = vmean[i] + (vmean[j] if j >= 0 else 0.0)
+    run[0] = 0.0
+    any_hit = False
+    n_int = n_intervals(span, lm, slack, resolution)
+    if n_int == 0:
+        d = _pair_distance(i, j, fx, fy, ex, ey, t_lo, bx, by, la, s0, s1, pa, ta, aa, pb, tb, ab)
+        if d <= th:
+            any_hit = True
+            if record:
+                coll, nc = _add_item(coll, nc, run, p, t_lo, t_lo, d, t_lo, True, resolution)
+        if record:
+            coll, nc = _flush(coll, nc, run, p)
+        return d, t_lo, 1, coll, nc, any_hit
+    n_samples = 0
+    tc = np.empty(n_int + 1)
+    dc = np.empty(n_int + 1)
+    best = np.inf
+    tbest = t_lo
+    for k in range(n_int + 1):
+        t = t_lo + span * (k / n_int) if k < n_int else t_hi
+        tc[k] = t
+        d = _pair_distance(i, j, fx, fy, ex, ey, t, bx, by, la, s0, s1, pa, ta, aa, pb, tb, ab)
+        dc[k] = d
+        if d < best:
+            best = d
+            tbest = t
+    n_samples += n_int + 1
+    for k in range(n_int):
+        top = push(st, 0, tc[k], tc[k + 1], dc[k], dc[k + 1])
+        while top > 0:
+            top -= 1
+            a, b, da, db = st[top, 0], st[top, 1], st[top, 2], st[top, 3]
+            h = b - a
+            ca = da <= th
+            cb = db <= th
+            split = False
+            unresolved = False
+            lb = 0.0
+            loc = lg
+            if ca and cb:
+                # upper bound: D(t) <= (D0 + D1 + L h) / 2; split while an exit
+                # from collision inside the interval cannot be ruled out
+                if h > resolution and 0.5 * (da + db + lg * h) > th:
+                    loc = _local_speed(i, a, b, la, rmax, pa, ta, ra, pb, tb, rb)
+                    if j >= 0:
+                        loc += _local_speed(j, a, b, la, rmax, pa, ta, ra, pb, tb, rb)
+                    split = 0.5 * (da + db + loc * h) > th
+            elif ca or cb:
+                split = h > resolution
+            else:
+                lb = 0.5 * (da + db - lg * h)
+                want = best - tol - rel_tol * max(best - th, 0.0)
+                if lb <= th or lb < want:
+                    loc = _local_speed(i, a, b, la, rmax, pa, ta, ra, pb, tb, rb)
+                    if j >= 0:
+                        loc += _local_speed(j, a, b, la, rmax, pa, ta, ra, pb, tb, rb)
+                    lb = 0.5 * (da + db - loc * h)
+                    if lb <= th:
+                        if h > resolution:
+                            split = True
+                        else:
+                            unresolved = True
+                    elif lb < want and h > resolution:
+                        split = True
+            if split and top + 2 <= STACK:
+                m = a + 0.5 * h
+                dm = _pair_distance(i, j, fx, fy, ex, ey, m, bx, by, la, s0, s1,
+                                    pa, ta, aa, pb, tb, ab)
+                n_samples += 1
+                if dm < best:
+                    best = dm
+                    tbest = m
+                top = push_halves(st, top, a, m, b, da, dm, db)
+                continue
+            if split:               # stack exhausted (cannot happen in practice)
+                unresolved = (not (ca or cb)) and lb <= th
+            # terminal interval [a, b]: its left sample, then the interval itself
+            if ca or unresolved:
+                any_hit = True
+            if not record:
+                continue
+            if ca:
+                coll, nc = _add_item(coll, nc, run, p, a, a, da, a, True, resolution)
+            if ca and cb:
+                coll, nc = _add_item(coll, nc, run, p, a, b, np.inf, a, False, resolution)
+            elif unresolved:
+                # time where the bound is lowest, clipped to the interval
+                tl = a + 0.5 * h
+                if loc > 0.0:
+                    tl = min(max(tl + (da - db) / (2.0 * loc), a), b)
+                coll, nc = _add_item(coll, nc, run, p, a, b, max(lb, 0.0), tl, False,
+                                     resolution)
+    if dc[n_int] <= th:
+        any_hit = True
+        if record:
+            coll, nc = _add_item(coll, nc, run, p, t_hi, t_hi, dc[n_int], t_hi, True, resolution)
+    if record:
+        coll, nc = _flush(coll, nc, run, p)
+    return best, tbest, n_samples, coll, nc, any_hit
+
+
+@njit(cache=True, parallel=True)
+def _scan_pairs(pi, pj, pfx, pfy, pex, pey, thr, bx, by, la, s0, s1, rmax,
+                pa, ta, aa, ra, pb, tb, ab, rb, vglob, vmean,
+                t_lo, t_hi, slack, resolution, tol, rel_tol):
+    """Every pair checked in parallel, nothing recorded: (pair_min, pair_tmin,
+    samples per pair, any collision per pair)."""
+    n_p = pi.shape[0]
+    pmin = np.full(n_p, np.inf)
+    ptmin = np.zeros(n_p)
+    ns = np.zeros(n_p, dtype=np.int64)
+    hit = np.zeros(n_p, dtype=np.bool_)
+    for p in prange(n_p):
+        st = np.empty((STACK, 4))
+        run = np.zeros(6)
+        none = np.empty((1, 6))
+        d, td, k, _, _, h = _check_pair(p, pi, pj, pfx, pfy, pex, pey, thr, bx, by, la, s0,
+                                        s1, rmax, pa, ta, aa, ra, pb, tb, ab, rb, vglob,
+                                        vmean, t_lo, t_hi, slack, resolution, tol, rel_tol,
+                                        st, run, none, 0, False)
+        pmin[p] = d
+        ptmin[p] = td
+        ns[p] = k
+        hit[p] = h
+    return pmin, ptmin, ns, hit
+
+
+@njit(cache=True)
+def _record_pairs(pairs, pi, pj, pfx, pfy, pex, pey, thr, bx, by, la, s0, s1, rmax,
+                  pa, ta, aa, ra, pb, tb, ab, rb, vglob, vmean,
+                  t_lo, t_hi, slack, resolution, tol, rel_tol):
+    """The collision rows (k, 6) of the pairs ``pairs`` (indices), checked again in order."""
+    coll = np.empty((8, 6))
+    nc = 0
+    st = np.empty((STACK, 4))
+    run = np.zeros(6)
+    for q in range(pairs.shape[0]):
+        _, _, _, coll, nc, _ = _check_pair(pairs[q], pi, pj, pfx, pfy, pex, pey, thr, bx, by,
+                                           la, s0, s1, rmax, pa, ta, aa, ra, pb, tb, ab, rb,
+                                           vglob, vmean, t_lo, t_hi, slack, resolution, tol,
+                                           rel_tol, st, run, coll, nc, True)
+    return coll[:nc]
+
+
 def check_pairs(pi, pj, pfx, pfy, pex, pey, thr, bx, by, la, s0, s1, rmax,
                 pa, ta, aa, ra, pb, tb, ab, rb, vglob, vmean,
                 t_lo, t_hi, slack, resolution, tol, rel_tol):
@@ -156,116 +318,13 @@ def check_pairs(pi, pj, pfx, pfy, pex, pey, thr, bx, by, la, s0, s1, rmax,
     ``pfx, pfy, pex, pey`` (pairs,): the obstacle segment of a pair with ``pj < 0``, mm;
     ``la, s0, s1, rmax`` (n,): each robot's arm, mm (see the module docstring).
 
-    ``coll`` rows: pair index, t_start, t_end, t_min, d_min, conservative (0/1).
+    ``coll`` rows: pair index, t_start, t_end, t_min, d_min, conservative (0/1), in pair
+    order. The pairs are checked in parallel (numba threads); the few pairs with a
+    collision are checked again, the same way, to record their collision runs.
     """
-    n_p = pi.shape[0]
-    pmin = np.full(n_p, np.inf)
-    ptmin = np.zeros(n_p)
-    coll = np.empty((8, 6))
-    nc = 0
-    n_samples = 0
-    run = np.zeros(6)
-    st = np.empty((STACK, 4))
-    span = t_hi - t_lo
-    for p in range(n_p):
-        i = pi[p]
-        j = pj[p]
-        fx = pfx[p]
-        fy = pfy[p]
-        ex = pex[p]
-        ey = pey[p]
-        th = thr[p]
-        lg = vglob[i] + (vglob[j] if j >= 0 else 0.0)
-        lm = vmean[i] + (vmean[j] if j >= 0 else 0.0)
-        run[0] = 0.0
-        n_int = n_intervals(span, lm, slack, resolution)
-        if n_int == 0:
-            d = _pair_distance(i, j, fx, fy, ex, ey, t_lo, bx, by, la, s0, s1, pa, ta, aa, pb, tb,
-                               ab)
-            n_samples += 1
-            pmin[p] = d
-            ptmin[p] = t_lo
-            if d <= th:
-                coll, nc = _add_item(coll, nc, run, p, t_lo, t_lo, d, t_lo, True, resolution)
-            coll, nc = _flush(coll, nc, run, p)
-            continue
-        tc = np.empty(n_int + 1)
-        dc = np.empty(n_int + 1)
-        best = np.inf
-        tbest = t_lo
-        for k in range(n_int + 1):
-            t = t_lo + span * (k / n_int) if k < n_int else t_hi
-            tc[k] = t
-            d = _pair_distance(i, j, fx, fy, ex, ey, t, bx, by, la, s0, s1, pa, ta, aa, pb, tb, ab)
-            dc[k] = d
-            if d < best:
-                best = d
-                tbest = t
-        n_samples += n_int + 1
-        for k in range(n_int):
-            top = push(st, 0, tc[k], tc[k + 1], dc[k], dc[k + 1])
-            while top > 0:
-                top -= 1
-                a, b, da, db = st[top, 0], st[top, 1], st[top, 2], st[top, 3]
-                h = b - a
-                ca = da <= th
-                cb = db <= th
-                split = False
-                unresolved = False
-                lb = 0.0
-                loc = lg
-                if ca and cb:
-                    # upper bound: D(t) <= (D0 + D1 + L h) / 2; split while an exit
-                    # from collision inside the interval cannot be ruled out
-                    if h > resolution and 0.5 * (da + db + lg * h) > th:
-                        loc = _local_speed(i, a, b, la, rmax, pa, ta, ra, pb, tb, rb)
-                        if j >= 0:
-                            loc += _local_speed(j, a, b, la, rmax, pa, ta, ra, pb, tb, rb)
-                        split = 0.5 * (da + db + loc * h) > th
-                elif ca or cb:
-                    split = h > resolution
-                else:
-                    lb = 0.5 * (da + db - lg * h)
-                    want = best - tol - rel_tol * max(best - th, 0.0)
-                    if lb <= th or lb < want:
-                        loc = _local_speed(i, a, b, la, rmax, pa, ta, ra, pb, tb, rb)
-                        if j >= 0:
-                            loc += _local_speed(j, a, b, la, rmax, pa, ta, ra, pb, tb, rb)
-                        lb = 0.5 * (da + db - loc * h)
-                        if lb <= th:
-                            if h > resolution:
-                                split = True
-                            else:
-                                unresolved = True
-                        elif lb < want and h > resolution:
-                            split = True
-                if split and top + 2 <= STACK:
-                    m = a + 0.5 * h
-                    dm = _pair_distance(i, j, fx, fy, ex, ey, m, bx, by, la, s0, s1,
-                                        pa, ta, aa, pb, tb, ab)
-                    n_samples += 1
-                    if dm < best:
-                        best = dm
-                        tbest = m
-                    top = push_halves(st, top, a, m, b, da, dm, db)
-                    continue
-                if split:               # stack exhausted (cannot happen in practice)
-                    unresolved = (not (ca or cb)) and lb <= th
-                # terminal interval [a, b]: its left sample, then the interval itself
-                if ca:
-                    coll, nc = _add_item(coll, nc, run, p, a, a, da, a, True, resolution)
-                if ca and cb:
-                    coll, nc = _add_item(coll, nc, run, p, a, b, np.inf, a, False, resolution)
-                elif unresolved:
-                    # time where the bound is lowest, clipped to the interval
-                    tl = a + 0.5 * h
-                    if loc > 0.0:
-                        tl = min(max(tl + (da - db) / (2.0 * loc), a), b)
-                    coll, nc = _add_item(coll, nc, run, p, a, b, max(lb, 0.0), tl, False,
-                                         resolution)
-        if dc[n_int] <= th:
-            coll, nc = _add_item(coll, nc, run, p, t_hi, t_hi, dc[n_int], t_hi, True, resolution)
-        coll, nc = _flush(coll, nc, run, p)
-        pmin[p] = best
-        ptmin[p] = tbest
-    return pmin, ptmin, n_samples, coll[:nc]
+    args = (pi, pj, pfx, pfy, pex, pey, thr, bx, by, la, s0, s1, rmax,
+            pa, ta, aa, ra, pb, tb, ab, rb, vglob, vmean,
+            float(t_lo), float(t_hi), float(slack), float(resolution), float(tol), float(rel_tol))
+    pmin, ptmin, ns, hit = _scan_pairs(*args)
+    coll = _record_pairs(np.flatnonzero(hit).astype(np.int64), *args)
+    return pmin, ptmin, int(ns.sum()), coll
