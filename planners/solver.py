@@ -43,7 +43,7 @@ from dataclasses import replace as _with
 import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
-from rfp_twin.models.errors import SpecError, TargetError
+from rfp_twin.models.errors import PlanningError, SpecError, TargetError
 from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
 from rfp_twin.planners.continuation import continue_groups
 from rfp_twin.planners.offline import apply_offline
@@ -199,6 +199,13 @@ def _replace_one(geom: ArrayGeometry, rng: np.random.Generator, targets: np.ndar
     return targets
 
 
+#: Largest fraction of the movable robots that may be stuck after the first run for
+#: deadlock resolution to be tried: beyond it the planner itself failed (e.g. Markov with
+#: phobia 0.6, whose arrived robots keep stepping aside), and resolving group by group
+#: would run for hours.
+MAX_STUCK_FRACTION = 0.5
+
+
 def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: PlannerSettings,
                          rng: np.random.Generator, *, offline: dict[int, tuple[float, float]] | None = None,
                          resolve: bool = True, progress=None) -> Plan:
@@ -261,6 +268,15 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         if convergence is None:
             tau_pg = run.seconds
             convergence = 1.0 - stuck.sum() / max(1, movable.sum())
+            if resolve and stuck.sum() > MAX_STUCK_FRACTION * max(1, movable.sum()):
+                raise PlanningError(
+                    ("greedy" if settings.greedy else
+                     f"markov (greed {settings.greed:g}, phobia {settings.phobia:g})")
+                    + f": {int(stuck.sum())} of {int(movable.sum())} "
+                    f"robots did not reach their destination in {run.n_steps} steps; deadlock "
+                    "resolution handles groups, not most of the array; allowed: at most "
+                    f"{MAX_STUCK_FRACTION:.0%} stuck (a lower phobia, e.g. the paper's 0.3, "
+                    "a larger max_steps, or greedy)")
         if progress is not None:
             progress(rounds, int(stuck.sum()))
         outcome = None

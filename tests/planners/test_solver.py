@@ -220,3 +220,22 @@ def test_timings_count_the_first_run_every_run_and_the_whole_call(monkeypatch):
     assert m["tau_sr_s"] > m["tau_pg_s"] > 0.0
     assert m["pg_retries"] == sum(r.retries for r in runs) == 0
     assert m["planning_s"] >= m["tau_sr_s"] + m["search_s"] + m["continuation_s"]
+
+
+def test_a_planner_that_leaves_most_robots_stuck_is_an_error_not_a_search():
+    """More than half of the robots short of their destination after the first run: the
+    planner failed (here: 40 steps are far too few), and resolving group by group would
+    run for hours. One line naming the settings; with ``resolve=False`` the plan is
+    returned and marks them deadlocked."""
+    from rfp_twin.models.errors import PlanningError
+
+    geom = make_geom(37, 2.0)
+    rng = np.random.default_rng(4)
+    from rfp_twin.planners.targets import random_targets
+    targets = random_targets(geom, rng)
+    settings = PlannerSettings(algorithm="greedy", step_deg=0.1, max_steps=40)
+    with pytest.raises(PlanningError, match=r"^greedy: \d+ of 37 robots did not reach their "
+                                            r"destination in 40 steps.*at most 50% stuck"):
+        plan_reconfiguration(geom, targets, settings, np.random.default_rng(1))
+    plan = plan_reconfiguration(geom, targets, settings, np.random.default_rng(1), resolve=False)
+    assert (plan.status == DEADLOCKED).sum() > 37 // 2
