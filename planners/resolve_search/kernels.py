@@ -19,6 +19,7 @@ import numpy as np
 from numba import njit
 
 from rfp_twin.models.geometry2d import beta_segment, point_segment_distance, segments_within
+from rfp_twin.planners.roadmap.sweep import _sweep_advance, _sweep_queries
 
 
 @njit(cache=True)
@@ -68,6 +69,57 @@ def moving_collisions(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, ob
                 hits[o] += 1
                 break
         out[r] = hit
+
+
+#: :func:`sweep_layers` outcomes.
+SWEEP_FOUND, SWEEP_FAILED, SWEEP_BUDGET = 0, 1, 2
+
+
+@njit(cache=True)
+def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
+                 bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, hits):
+    """The layer loop of :class:`rfp_twin.planners.roadmap.sweep._PathSweep` compiled, with
+    :func:`moving_collisions` as its black box (same queries, same order, same result).
+
+    Q (P + 1, 2), D (P, 2) deg: positions along the path and forward steps; frac (K,)
+    sub-check offsets; k_static, k_max: time indices (-1: none); t0, dt: time of layer 0
+    and layer spacing (steps); goal_after: earliest time the goal may be reached;
+    nodes_left: node budget (-1: none); the obstacle tables as :func:`moving_collisions`.
+    Returns (outcome, k_end, came (k_end, P + 1) int8 action that reached each position
+    per layer, nodes expanded, checks made).
+    """
+    P = Q.shape[0] - 1
+    K = frac.shape[0]
+    reach = np.zeros(P + 1, dtype=np.bool_)
+    reach[0] = True
+    came = np.zeros((16, P + 1), dtype=np.int8)
+    nodes = 0
+    checks = 0
+    k = 0
+    while True:
+        if reach[P] and t0 + k * dt > goal_after - 1e-12:
+            return SWEEP_FOUND, k, came[:k], nodes, checks
+        if k_max >= 0 and k >= k_max:
+            return SWEEP_FAILED, k, came[:k], nodes, checks
+        nodes += int(reach.sum())
+        if nodes_left >= 0 and nodes >= nodes_left:
+            return SWEEP_BUDGET, k, came[:k], nodes, checks
+        static = k_static >= 0 and k >= k_static
+        q, t, src, act = _sweep_queries(reach, Q, D, frac, static, t0 + k * dt, dt)
+        checks += t.size
+        hit = np.empty(t.size, dtype=np.bool_)
+        moving_collisions(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, hit,
+                          hits)
+        nxt, how = _sweep_advance(hit, src, act, K, P)
+        if not nxt.any():
+            return SWEEP_FAILED, k, came[:k], nodes, checks
+        if k == came.shape[0]:
+            grown = np.zeros((2 * k, P + 1), dtype=np.int8)
+            grown[:k] = came
+            came = grown
+        came[k] = how
+        reach = nxt
+        k += 1
 
 
 @njit(cache=True)

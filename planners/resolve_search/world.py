@@ -33,7 +33,7 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.planners.resolve_search.kernels import (moving_collisions, pair_conflict, reach_of,
-                                             segments_at, static_collisions)
+                                             segments_at, static_collisions, sweep_layers)
 from rfp_twin.planners.resolve_search.paths import PathSet
 from rfp_twin.planners.roadmap import Arm, ArmTrajectory
 
@@ -203,12 +203,20 @@ class AlphaBetaWorld:
                        st_seg, st_th, pt_xy, pt_th, out)
             return out
 
+        def sweep(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left):
+            return sweep_layers(np.ascontiguousarray(Q, dtype=np.float64),
+                                np.ascontiguousarray(D, dtype=np.float64),
+                                np.ascontiguousarray(frac, dtype=np.float64), int(k_static),
+                                int(k_max), float(t0), float(dt), float(goal_after),
+                                int(nodes_left), bx, by, l_alpha, s0, s1, obs_seg, obs_rho,
+                                obs_d, obs_th, hits)
+
         v = np.full(2, self.step_deg)
         return Arm(start=np.asarray(start, dtype=np.float64), goal=np.asarray(goal, dtype=np.float64),
                    vmax=v, forbidden=forbidden, collides=collides,
                    lower=limits[[0, 2]].copy(), upper=limits[[1, 3]].copy(),
                    t_start=float(t_start), hold_until=float(t_last), t_static=float(t_last),
-                   via=partial(self.via, robot=i))
+                   via=partial(self.via, robot=i), sweep=sweep)
 
     def via(self, start: np.ndarray, goal: np.ndarray, robot: int) -> list[np.ndarray]:
         """Extra roadmap paths: retract beta fully, turn alpha, then go to the goal.

@@ -50,6 +50,11 @@ class Arm:
         part of an existing plan to keep); its last time is where it ends
     via : callable ``(start, goal) -> list of (k, d) arrays`` or None: extra roadmap
         paths ``start -> via[0] -> ... -> goal`` a robot model knows to be useful
+    sweep : callable or None, a compiled replacement of the sweep search's layer loop
+        with ``collides`` inside it (same queries, same result, no Python per layer):
+        ``sweep(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left) -> (outcome
+        0 found / 1 failed / 2 budget, k_end, came (k_end, P + 1) int8, nodes, checks)``,
+        indices -1 for none (:func:`rfp_twin.planners.resolve_search.kernels.sweep_layers`)
     """
 
     start: np.ndarray
@@ -65,6 +70,7 @@ class Arm:
     extra_vertices: np.ndarray | None = None
     lead_in: tuple[np.ndarray, np.ndarray] | None = None
     via: Callable[[np.ndarray, np.ndarray], list] | None = None
+    sweep: Callable | None = None
 
     @property
     def dim(self) -> int:

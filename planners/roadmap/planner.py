@@ -100,8 +100,8 @@ def _search_roadmap(arm: Arm, roadmap: Roadmap, settings: RoadmapSettings, stats
         if settings.max_path_time is not None and est > settings.max_path_time:
             break
         # drop zero-length edges (a vertex on the start or goal)
-        keep = [0] + [k for k in range(1, len(path)) if not np.allclose(path[k], path[k - 1])]
-        path = path[keep]
+        same = np.all(np.abs(path[1:] - path[:-1]) <= 1e-8 + 1e-5 * np.abs(path[:-1]), axis=1)
+        path = path[np.concatenate([[True], ~same])]
         if len(path) < 2:
             path = np.stack([path[0], path[0]])
         if not all(feasible.ok(path[k], path[k + 1]) for k in range(len(path) - 1)):

@@ -116,6 +116,8 @@ class _PathSweep(_PathWalk):
             k_max = k_bound if k_max is None else min(k_max, k_bound)
         if self.start_collides():
             return None
+        if self.arm.sweep is not None:
+            return self._run_compiled(k_static, k_max)
         reach = np.zeros(P + 1, dtype=bool)
         reach[0] = True
         came: list[np.ndarray] = []                 # per layer: action that reached each position
@@ -142,7 +144,20 @@ class _PathSweep(_PathWalk):
             reach = nxt
             k += 1
 
-    def _trajectory(self, came: list[np.ndarray], k_end: int) -> ArmTrajectory:
+    def _run_compiled(self, k_static: int | None, k_max: int | None) -> ArmTrajectory | None:
+        """The layer loop run by the arm's compiled ``sweep`` (same queries and result)."""
+        s = self.s
+        left = -1 if s.max_nodes is None else max(0, s.max_nodes - self.stats.nodes)
+        outcome, k_end, came, nodes, checks = self.arm.sweep(
+            self.Q, self.D, self.frac, -1 if k_static is None else k_static,
+            -1 if k_max is None else k_max, self.time(0), s.dt, self.goal_clear_after, left)
+        self.stats.nodes += int(nodes)
+        self.stats.checks += int(checks)
+        if outcome == 2:
+            self.stats.budget_exhausted = True
+        return self._trajectory(came, int(k_end)) if outcome == 0 else None
+
+    def _trajectory(self, came, k_end: int) -> ArmTrajectory:
         P = len(self.Q) - 1
         pos = [P]
         acts = []

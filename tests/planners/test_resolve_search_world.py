@@ -81,3 +81,42 @@ def test_offline_robots_are_static_obstacles():
     arm = AlphaBetaWorld(geom, paths, movable, md, 0.5).arm(c, fold[c], fold[c])
     assert arm.forbidden(fold[c][None, :]).all()
     assert not arm.collides(fold[c][None, :], np.zeros(1)).any()
+
+
+def test_the_compiled_sweep_finds_what_the_python_layer_loop_finds():
+    """The world's arms carry a compiled sweep (the layer loop with the step-rule test
+    inside numba). Same arm, same roadmap paths: the same trajectory, node and check
+    counts as the Python loop around ``collides``; and a node budget stops both alike."""
+    from dataclasses import replace
+
+    from rfp_twin.planners.resolve_search.settings import SearchResolveSettings
+    from rfp_twin.planners.roadmap import plan_arm
+
+    geom = make_geom(7, 2.0)
+    step = 0.5
+    spec = geom.spec
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
+    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
+    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
+    right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
+    # the right neighbour swings its arm towards the centre and back over 120 steps
+    times = [np.array([0.0])] * geom.n_robots
+    confs = [fold[i][None, :] for i in range(geom.n_robots)]
+    times[right] = np.array([0.0, 60.0, 120.0])
+    confs[right] = np.array([fold[right], [180.0, 20.0], fold[right]])
+    paths = PathSet(times, confs)
+    world = AlphaBetaWorld(geom, paths, np.ones(geom.n_robots, bool), md, step)
+    goal = np.array([0.0, 10.0])                     # stretched towards the neighbour
+    arm = world.arm(c, fold[c], goal)
+    assert arm.sweep is not None
+    base = SearchResolveSettings(search="sweep").roadmap_settings(step)
+    for settings in (base, replace(base, max_nodes=40)):
+        got = {}
+        for name, a in (("compiled", arm), ("python", replace(arm, sweep=None))):
+            traj, stats = plan_arm(a, settings, np.random.default_rng(3))
+            got[name] = (None if traj is None else (traj.times.tolist(), traj.configs.tolist()),
+                         stats.nodes, stats.checks, stats.paths_tried, stats.budget_exhausted)
+        assert got["compiled"] == got["python"]
+        if settings is base:
+            assert got["compiled"][0] is not None and got["compiled"][3] >= 1
+    assert got["compiled"][4]                         # the small budget ran out
