@@ -99,18 +99,19 @@ def test_the_compiled_sweep_finds_what_the_python_layer_loop_finds():
     fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
     c = int(np.argmin(np.hypot(*geom.base_xy.T)))
     right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
-    # the right neighbour swings its arm towards the centre and back over 120 steps
+    # the right neighbour swings its arm towards the centre and back over 120 steps: the
+    # centre, clear where it is, must wait before it can stretch out
     times = [np.array([0.0])] * geom.n_robots
     confs = [fold[i][None, :] for i in range(geom.n_robots)]
     times[right] = np.array([0.0, 60.0, 120.0])
-    confs[right] = np.array([fold[right], [180.0, 20.0], fold[right]])
+    confs[right] = np.array([fold[right], [140.0, 30.0], fold[right]])
     paths = PathSet(times, confs)
     world = AlphaBetaWorld(geom, paths, np.ones(geom.n_robots, bool), md, step)
-    goal = np.array([0.0, 10.0])                     # stretched towards the neighbour
+    goal = np.array([0.0, 90.0])
     arm = world.arm(c, fold[c], goal)
     assert arm.sweep is not None
     base = SearchResolveSettings(search="sweep").roadmap_settings(step)
-    for settings in (base, replace(base, max_nodes=40)):
+    for settings in (base, replace(base, max_nodes=300)):
         got = {}
         for name, a in (("compiled", arm), ("python", replace(arm, sweep=None))):
             traj, stats = plan_arm(a, settings, np.random.default_rng(3))
@@ -118,5 +119,5 @@ def test_the_compiled_sweep_finds_what_the_python_layer_loop_finds():
                          stats.nodes, stats.checks, stats.paths_tried, stats.budget_exhausted)
         assert got["compiled"] == got["python"]
         if settings is base:
-            assert got["compiled"][0] is not None and got["compiled"][3] >= 1
+            assert got["compiled"][0] is not None and got["compiled"][0][0][-1] > 120.0
     assert got["compiled"][4]                         # the small budget ran out
