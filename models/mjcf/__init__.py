@@ -14,6 +14,9 @@ reach the narrowphase:
 - :mod:`rfp_twin.models.mjcf.options`: names, colours, :class:`ServoParams`, :class:`ModelOptions`
 - :mod:`rfp_twin.models.mjcf.bodies`: robot and fiducial bodies, meshes, servos, contact bits
 - :mod:`rfp_twin.models.mjcf.cameras`: plate, lights, cameras
+- :mod:`rfp_twin.models.mjcf.blocks`: robots built into small specs and merged by attaches
+  (an MjSpec add costs O(spec size): one big spec would be O(n^2))
+- :mod:`rfp_twin.models.mjcf.memory`: MuJoCo's arena sized from the grid; the body-count limit
 - :mod:`rfp_twin.models.mjcf.build`: :func:`build_spec`, :func:`build_model`, :func:`export_model`
 - :mod:`rfp_twin.models.mjcf.index`, :mod:`rfp_twin.models.mjcf.twin_model`: the compiled model
 """

@@ -125,6 +125,10 @@ class ModelOptions:
     closeup_robot : robot id the ``closeup`` camera looks at (default: nearest the centre).
     collide_alpha : give alpha arms collision geoms (default True; they never touch when
         :meth:`RobotGeometry.alpha_arms_can_touch` is False, and cost little).
+    contacts_per_robot : room in MuJoCo's arena for this many contacts per robot at once
+        (default 4; every arm through its neighbours at random angles makes < 1). More in
+        one step are dropped with a ``mjWARN_CONTACTFULL`` warning
+        (:mod:`rfp_twin.models.mjcf.memory`).
     """
 
     timestep_s: float = 0.004
@@ -132,6 +136,7 @@ class ModelOptions:
     servo: ServoParams | None = None
     closeup_robot: int | None = None
     collide_alpha: bool = True
+    contacts_per_robot: float = 4.0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.timestep_s, (int, float)) and 1e-5 <= self.timestep_s <= 0.05):
@@ -139,6 +144,9 @@ class ModelOptions:
         if self.integrator not in INTEGRATORS:
             raise SpecError(f"field 'integrator' = {self.integrator!r}; allowed: "
                             f"{', '.join(INTEGRATORS)}")
+        c = self.contacts_per_robot
+        if isinstance(c, bool) or not isinstance(c, (int, float)) or not 0 <= c <= 1000:
+            raise SpecError(f"field 'contacts_per_robot' = {c!r}; allowed: [0, 1000]")
 
 
 def servo_for(spec: RobotSpec) -> ServoParams:

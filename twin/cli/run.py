@@ -41,6 +41,30 @@ def parse_faults(stuck: list[str], slow: list[str], offset: list[str]) -> list:
     return faults
 
 
+def build_with_progress(spec, lay, options=None):
+    """The MuJoCo twin of ``lay``, built under a progress bar (robots added, then MuJoCo's
+    compile, which takes most of the time on large arrays)."""
+    from rfp_twin.models.mjcf import build_model
+
+    with progress_bar("building model", "{task.completed}/{task.total}") as progress:
+        task = progress.add_task("robots", total=lay.n_robots)
+
+        def step(stage: str, done: int, total: int) -> None:
+            progress.update(task, description=stage, completed=done, total=total)
+
+        return build_model(spec, lay, options=options, progress=step)
+
+
+def simulate_with_progress(twin, traj, faults=(), record: bool = False):
+    """Simulate ``traj`` on ``twin`` under a progress bar (simulated seconds)."""
+    from rfp_twin.twin.sim import simulate as run_sim
+
+    with progress_bar("simulating") as progress:
+        task = progress.add_task("", total=traj.duration + 0.5)
+        return run_sim(twin, traj, faults, record=record,
+                       callback=lambda t, m, d: progress.update(task, completed=t))
+
+
 @model_app.command("export")
 @one_line_errors
 def model_export(
@@ -72,17 +96,13 @@ def simulate(
     timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
 ) -> None:
     """Run the plan in the MuJoCo twin; writes RUN/sim.json; exit 4 on any robot contact."""
-    from rfp_twin.models.mjcf import ModelOptions, build_model
+    from rfp_twin.models.mjcf import ModelOptions
     from rfp_twin.twin.run_dir import load_run
-    from rfp_twin.twin.sim import simulate as run_sim
 
     spec, lay, traj, _ = load_run(run)
     faults = parse_faults(stuck, slow, encoder_offset)
-    twin = build_model(spec, lay, options=ModelOptions(timestep_s=timestep))
-    with progress_bar("simulating") as progress:
-        task = progress.add_task("", total=traj.duration + 0.5)
-        report = run_sim(twin, traj, faults,
-                         callback=lambda t, m, d: progress.update(task, completed=t), record=False)
+    twin = build_with_progress(spec, lay, ModelOptions(timestep_s=timestep))
+    report = simulate_with_progress(twin, traj, faults)
     report.to_json(Path(run) / "sim.json")
     console.print(report.table())
     if report.collided:
@@ -107,16 +127,17 @@ def render(
     """Simulate a run and render it offscreen to MP4 (robots coloured by state)."""
     from rfp_twin.twin.render import RenderSettings, render_run  # first: picks MUJOCO_GL before mujoco
 
-    from rfp_twin.models.mjcf import build_model
     from rfp_twin.twin.run_dir import load_run
 
     spec, lay, traj, _ = load_run(run, to_fold=fold)
     settings = RenderSettings(width=width, height=height, fps=fps, speedup=speedup,
                               camera=camera or ("closeup" if robot is not None else "top"),
                               robot_id=robot, lean=not full_quality)
+    twin = build_with_progress(spec, lay)
+    sim_report = simulate_with_progress(twin, traj, record=True)
     with progress_bar("rendering", "{task.completed}/{task.total} frames") as progress:
         task = progress.add_task("", total=None)
-        report = render_run(build_model(spec, lay), traj, out, settings,
+        report = render_run(twin, traj, out, settings, sim_report=sim_report,
                             progress=lambda i, n: progress.update(task, completed=i, total=n))
     console.print(f"wrote {out}: {report.frames} frames, {report.fps_rendered:.1f} frames/s "
                   f"rendered, {report.fps_achieved:.1f} frames/s with encoding ({report.backend})")
@@ -130,11 +151,13 @@ def record(
     dt: Optional[float] = typer.Option(None, help="Seconds between logged poses [default 0.02]."),
 ) -> None:
     """Simulate a run and write a rerun recording: arm poses, fiber traces, contacts."""
-    from rfp_twin.models.mjcf import build_model
     from rfp_twin.twin.record import RecordSettings, record_run
     from rfp_twin.twin.run_dir import load_run
 
     spec, lay, traj, _ = load_run(run, to_fold=fold)
-    with err_console.status("simulating and recording"):
-        path = record_run(build_model(spec, lay), traj, out, settings=RecordSettings(dt_s=dt))
+    settings = RecordSettings(dt_s=dt)
+    twin = build_with_progress(spec, lay)
+    sim_report = simulate_with_progress(twin, traj, record=True)
+    with err_console.status("recording"):
+        path = record_run(twin, traj, out, sim_report=sim_report, settings=settings)
     console.print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB); open it with `rerun {path}`")
