@@ -4,8 +4,10 @@ A typer sub-app; :mod:`rfp_twin.twin.cli` mounts it as ``rfp-twin study``.
 
 Commands
 --------
-run FILE      run (or resume) a study: FILE is a study TOML or a shipped study name
-report DIR    markdown + figures for a study folder
+run FILE      run (or resume) a study: FILE is a study TOML or a shipped study name; a
+              finished study's trials end up in one file, DIR/results/trials.parquet
+report DIR    markdown + figures for a study folder (design studies: the frontier)
+consolidate DIR   merge a folder's per-trial files into DIR/results/trials.parquet
 list          the shipped studies
 """
 from __future__ import annotations
@@ -18,8 +20,11 @@ from rich.table import Table
 
 from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, EXIT_INTERRUPTED, console,
                                   err_console, fail, one_line_errors)
-from rfp_twin.twin.studies import (default_out_dir, list_studies, load_study, machine_workers,
-                          run_study)
+from rfp_twin.twin.studies import (consolidate_results, default_out_dir, list_studies, load_study,
+                                   machine_workers, run_study)
+
+#: Trend checks printed one per line; more are summed up in one line.
+MAX_TRENDS_SHOWN = 8
 
 study_app = typer.Typer(add_completion=False, no_args_is_help=True,
                         pretty_exceptions_enable=False,
@@ -79,6 +84,10 @@ def run(
                  ("run time", f"{s.seconds:.1f} s"),
                  ("throughput", f"{s.rate_per_min:.1f} trials/min")):
         t.add_row(k, v)
+    if study.coverage:
+        t.add_row("coverage measured now (geometries)", str(s.n_coverage))
+    if s.consolidated is not None:
+        t.add_row("trials consolidated into", str(s.consolidated))
     console.print(t)
     if report:
         _report(out_dir, None, False)
@@ -100,8 +109,12 @@ def _report(study_dir: Path, out: Optional[Path], all_points: bool) -> None:
         console.print(f"  figure: {f}")
     for name, why in rep.skipped.items():
         console.print(f"  not drawn: {name} ({why})", highlight=False)
-    for name, ok in rep.trends.items():
-        console.print(f"  trend {name}: {'yes' if ok else 'NO'}", highlight=False)
+    if len(rep.trends) <= MAX_TRENDS_SHOWN:
+        for name, ok in rep.trends.items():
+            console.print(f"  trend {name}: {'yes' if ok else 'NO'}", highlight=False)
+    elif rep.trends:
+        console.print(f"  trends: {sum(rep.trends.values())} of {len(rep.trends)} hold (each "
+                      f"in {rep.markdown.name})", highlight=False)
 
 
 @study_app.command("report")
@@ -114,6 +127,32 @@ def report(
 ) -> None:
     """Write report.md and the figures (Sayres 2021 Figs. 10-18 style, feasibility map)."""
     _report(study_dir, out, all_points)
+
+
+@study_app.command("consolidate")
+@one_line_errors
+def consolidate(
+    study_dir: Path = typer.Argument(..., help="Study folder written by `rfp-twin study run`."),
+) -> None:
+    """Merge a study folder's per-trial files into DIR/results/trials.parquet (verified, then
+    the per-trial files are removed); `study run` does this itself when a study finishes."""
+    from rfp_twin.twin.studies.spec import StudyError
+    from rfp_twin.twin.studies.store import RESULTS, WriterLock, data_files
+
+    results = study_dir / RESULTS
+    if not results.is_dir():
+        raise StudyError(f"{study_dir}: no {RESULTS}/ folder; allowed: a folder written by "
+                         "`rfp-twin study run`")
+    n_files = len(data_files(results))
+    with WriterLock(results):
+        merged = consolidate_results(study_dir)
+    if merged is None:
+        console.print(f"{results}: no trials to consolidate")
+        return
+    import pyarrow.parquet as pq
+
+    console.print(f"{n_files} file(s) -> {merged} ({pq.ParquetFile(merged).metadata.num_rows} "
+                  "trials)")
 
 
 @study_app.command("list")

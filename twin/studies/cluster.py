@@ -112,10 +112,10 @@ def drive(client, study: Study, todo: list[list[Trial]], results: Path, summary:
         bar, task = _progress_bar(study.name, summary.n_total, summary.n_before, console)
 
     def submit(b: list[Trial]):
-        items = [(t.point.to_dict(), t.point.spec, t.index, t.seed, t.key, t.point.point_id)
+        items = [(t.point.to_dict(), t.point.spec, t.index, t.seed, t.key, t.point.ids())
                  for t in b]
         fut = client.submit(run_batch, items, study.check, study.name, study.seed,
-                            key=f"rfp-study-{b[0].key}", pure=False)
+                            study.firmware, key=f"rfp-study-{b[0].key}", pure=False)
         by_key[fut.key] = b
         return fut
 

@@ -3,8 +3,10 @@
 The file format is described in :mod:`rfp_twin.twin.studies.spec`.
 
 Every key and value is checked on its own, then every grid point is resolved against its
-robot preset (defaults filled, the combination checked: buffer below pitch / 2, fold
-within the joint limits, the real focal plane's fixed pitch). Errors are one
+robot preset (:mod:`rfp_twin.twin.studies.resolve`: defaults filled, design axes applied,
+the combination checked: buffer below pitch / 2, fold within the joint limits, the real
+focal plane's fixed pitch). ``[[family]]`` tables override ``[grid]`` keys per robot
+family; the study is the union of the families' products. Errors are one
 :class:`~rfp_twin.twin.studies.spec.StudyError` line naming the file, the key and what is allowed.
 Units: mm, deg.
 """
@@ -16,12 +18,12 @@ import tomllib
 from importlib import resources
 from pathlib import Path
 
-from rfp_twin.models.errors import RfpError
 from rfp_twin.models.layout import hex_rings, nearest_hex_counts
-from rfp_twin.models.robot import RobotSpec, list_presets, load_spec
-from rfp_twin.twin.studies.spec import (ALGORITHM_ALIASES, DIRECTIONS, GRID_DEFAULTS, GRID_KEYS, LAYOUTS,
-                               NAME_RE, RESOLUTIONS, STUDY_KEYS, Study, StudyError, StudyPoint,
-                               point_layout)
+from rfp_twin.models.robot import RobotSpec
+from rfp_twin.twin.studies.resolve import load_preset, resolve_point
+from rfp_twin.twin.studies.spec import (ALGORITHM_ALIASES, DIRECTIONS, GRID_DEFAULTS, GRID_KEYS,
+                                        LAYOUTS, NAME_RE, RESOLUTIONS, SAME_TARGET_KEYS,
+                                        STUDY_KEYS, Study, StudyError, StudyPoint)
 
 __all__ = ["list_studies", "study_path", "load_study", "parse_study", "is_int"]
 
@@ -69,18 +71,89 @@ def _is_num(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
+def _study_table(source: str, st: dict) -> dict:
+    """The [study] table checked: {key: value} with defaults filled."""
+    out = {}
+    for key in ("description", "reference"):
+        if not isinstance(st.get(key, ""), str):
+            raise _bad(source, f"study.{key}", st[key], STUDY_KEYS[key])
+        out[key] = st.get(key, "")
+    trials = st.get("trials", 1)
+    if not is_int(trials) or trials < 1:
+        raise _bad(source, "study.trials", trials, STUDY_KEYS["trials"])
+    seed = st.get("seed", 0)
+    if not is_int(seed) or seed < 0:
+        raise _bad(source, "study.seed", seed, STUDY_KEYS["seed"])
+    for key, default in (("check", True), ("coverage", False), ("firmware", False)):
+        out[key] = st.get(key, default)
+        if not isinstance(out[key], bool):
+            raise _bad(source, f"study.{key}", out[key], STUDY_KEYS[key])
+    batch = st.get("batch", "auto")
+    if not (batch == "auto" or (is_int(batch) and batch >= 1)):
+        raise _bad(source, "study.batch", batch, STUDY_KEYS["batch"])
+    same = st.get("same_targets", [])
+    if not (isinstance(same, list) and all(k in SAME_TARGET_KEYS for k in same)
+            and len(set(same)) == len(same)):
+        raise _bad(source, "study.same_targets", same, STUDY_KEYS["same_targets"])
+    out.update(trials=trials, seed=seed, batch=batch, same_targets=tuple(same))
+    return out
+
+
+def _grid_values(source: str, table: dict, prefix: str, base: dict | None) -> dict[str, tuple]:
+    """{grid key: tuple of normalised values}: ``table``'s keys, the others from ``base``
+    (or the defaults). ``prefix`` names the table in messages (``grid`` / ``family[NAME]``)."""
+    grid: dict[str, tuple] = {}
+    for key, default in GRID_DEFAULTS.items():
+        if key not in table and base is not None:
+            grid[key] = base[key]
+            continue
+        raw = table.get(key, default)
+        values = list(raw) if isinstance(raw, list) else [raw]
+        if not values:
+            raise _bad(source, f"{prefix}.{key}", raw,
+                       f"a value or a non-empty list of values, each {GRID_KEYS[key]}")
+        norm = [_check_value(source, key, v, prefix) for v in values]
+        if len(set(norm)) != len(norm):
+            raise _bad(source, f"{prefix}.{key}", raw, "a list without repeated values")
+        grid[key] = tuple(norm)
+    return grid
+
+
+def _families(source: str, data: dict, base_grid: dict) -> list[tuple[str | None, dict]]:
+    """[(family name or None, its grid)]: the [[family]] tables over [grid], or [grid] alone."""
+    fams = data.get("family")
+    if fams is None:
+        return [(None, base_grid)]
+    if not (isinstance(fams, list) and fams and all(isinstance(f, dict) for f in fams)):
+        raise StudyError(f"{source}: 'family' must be an array of tables; allowed: one or more "
+                         "[[family]] tables with a 'name' and grid keys")
+    out, names = [], set()
+    for i, fam in enumerate(fams):
+        name = fam.get("name")
+        if not isinstance(name, str) or not NAME_RE.match(name) or name in names:
+            raise _bad(source, f"family[{i}].name", name, "a folder-safe name (letters, digits, "
+                       ". _ -), different in each family")
+        names.add(name)
+        for key in fam:
+            if key != "name" and key not in GRID_KEYS:
+                raise StudyError(f"{source}: unknown key '{key}' in family '{name}'; allowed: "
+                                 "name, " + ", ".join(GRID_KEYS))
+        out.append((name, _grid_values(source, fam, f"family[{name}]", base_grid)))
+    return out
+
+
 def parse_study(text: str, source: str = "<study>", base_dir: str | Path | None = None,
                 default_name: str = "study") -> Study:
-    """Parse and validate study TOML text (see the module docstring for the format)."""
+    """Parse and validate study TOML text (see :mod:`rfp_twin.twin.studies.spec` for the format)."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise StudyError(f"{source}: malformed TOML ({exc}); allowed: a TOML file with tables "
                          "'study' and 'grid'") from None
-    unknown = sorted(set(data) - {"study", "grid"})
+    unknown = sorted(set(data) - {"study", "grid", "family"})
     if unknown:
         raise StudyError(f"{source}: unknown table or key {unknown[0]!r}; allowed: tables 'study' "
-                         "and 'grid'")
+                         "and 'grid', and [[family]] tables")
     st = data.get("study", {})
     gr = data.get("grid", {})
     for name, tab in (("study", st), ("grid", gr)):
@@ -94,52 +167,44 @@ def parse_study(text: str, source: str = "<study>", base_dir: str | Path | None 
         if key not in GRID_KEYS:
             raise StudyError(f"{source}: unknown key '{key}' in table 'grid'; allowed: "
                              + ", ".join(GRID_KEYS))
-
     name = st.get("name", default_name)
     if not isinstance(name, str) or not NAME_RE.match(name):
         raise _bad(source, "study.name", name, STUDY_KEYS["name"])
-    for key in ("description", "reference"):
-        if not isinstance(st.get(key, ""), str):
-            raise _bad(source, f"study.{key}", st[key], STUDY_KEYS[key])
-    trials = st.get("trials", 1)
-    if not is_int(trials) or trials < 1:
-        raise _bad(source, "study.trials", trials, STUDY_KEYS["trials"])
-    seed = st.get("seed", 0)
-    if not is_int(seed) or seed < 0:
-        raise _bad(source, "study.seed", seed, STUDY_KEYS["seed"])
-    check = st.get("check", True)
-    if not isinstance(check, bool):
-        raise _bad(source, "study.check", check, STUDY_KEYS["check"])
-    batch = st.get("batch", "auto")
-    if not (batch == "auto" or (is_int(batch) and batch >= 1)):
-        raise _bad(source, "study.batch", batch, STUDY_KEYS["batch"])
-
-    grid: dict[str, tuple] = {}
-    for key, default in GRID_DEFAULTS.items():
-        raw = gr.get(key, default)
-        values = list(raw) if isinstance(raw, list) else [raw]
-        if not values:
-            raise _bad(source, f"grid.{key}", raw, "a value or a non-empty list of values")
-        norm = [_check_value(source, key, v) for v in values]
-        if len(set(norm)) != len(norm):
-            raise _bad(source, f"grid.{key}", raw, "a list without repeated values")
-        grid[key] = tuple(norm)
+    opts = _study_table(source, st)
+    families = _families(source, data, _grid_values(source, gr, "grid", None))
 
     base = Path(base_dir) if base_dir is not None else Path.cwd()
     specs: dict[str, RobotSpec] = {}
-    for preset in grid["preset"]:
-        specs[preset] = _load_preset(source, preset, base)
-
     points: list[StudyPoint] = []
     seen: set[str] = set()
-    for combo in itertools.product(*grid.values()):
-        p = _resolve_point(source, dict(zip(grid, combo)), specs)
-        if p.canonical not in seen:
-            seen.add(p.canonical)
-            points.append(p)
-    return Study(name=name, description=st.get("description", ""),
-                 reference=st.get("reference", ""), trials=trials, seed=seed, check=check,
-                 batch=batch, grid=grid, points=tuple(points), source=source, text=text)
+    own_keys = {f.get("name"): set(f) for f in data.get("family", [])}
+    for fam, grid in families:
+        prefix = "grid" if fam is None else f"family[{fam}]"
+
+        def origin(key: str, fam=fam) -> str:
+            """Where a key of this family's points is (or should be) written, for messages:
+            the [grid] table only when it holds the key and the family does not."""
+            if fam is None or (key in gr and key not in own_keys.get(fam, ())):
+                return f"grid.{key}"
+            return f"family[{fam}].{key}"
+
+        for preset in grid["preset"]:
+            if preset not in specs:
+                specs[preset] = load_preset(source, preset, base, f"{prefix}.preset")
+        for combo in itertools.product(*grid.values()):
+            p = resolve_point(source, dict(zip(grid, combo)), specs, family=fam, origin=origin,
+                              seed_exclude=opts["same_targets"])
+            if p.canonical not in seen:
+                seen.add(p.canonical)
+                points.append(p)
+    merged = {k: tuple(dict.fromkeys(v for _, g in families for v in g[k]))
+              for k in GRID_DEFAULTS}
+    return Study(name=name, description=opts["description"], reference=opts["reference"],
+                 trials=opts["trials"], seed=opts["seed"], check=opts["check"],
+                 batch=opts["batch"], grid=merged, points=tuple(points), source=source, text=text,
+                 same_targets=opts["same_targets"], coverage=opts["coverage"],
+                 firmware=opts["firmware"],
+                 families=tuple(f for f, _ in families if f is not None))
 
 
 #: Numeric grid keys: (low, high, low excluded, integer); None = unbounded.
@@ -150,12 +215,14 @@ _NUMERIC = {
     "segment_end_mm": (0.0, None, False, False), "step_deg": (0.001, 10.0, False, False),
     "greed": (0.0, 1.0, False, False), "phobia": (0.0, 1.0, False, False),
     "max_rounds": (0, None, False, True), "max_steps": (1, None, False, True),
+    "arm_ratio": (0.0, None, True, False), "pitch_over_reach": (0.0, None, True, False),
+    "n_rafts": (1, None, False, True),
 }
 
 
-def _check_value(source: str, key: str, v):
+def _check_value(source: str, key: str, v, prefix: str = "grid"):
     """Validate one grid value on its own; returns it normalised."""
-    where = f"grid.{key}"
+    where = f"{prefix}.{key}"
     allowed = GRID_KEYS[key]
     if v is None:
         return None
@@ -189,67 +256,3 @@ def _check_value(source: str, key: str, v):
     if v not in choices:
         raise _bad(source, where, v, allowed)
     return v
-
-
-def _load_preset(source: str, preset: str, base: Path) -> RobotSpec:
-    path = Path(preset)
-    if path.suffix == ".toml" and not path.is_absolute():
-        path = base / path
-    try:
-        return load_spec(path if path.suffix == ".toml" else preset)
-    except RfpError as exc:
-        raise StudyError(f"{source}: grid.preset = {preset!r}: {exc}; allowed: "
-                         f"{', '.join(list_presets())} or a robot TOML path") from None
-
-
-def _resolve_point(source: str, raw: dict, specs: dict[str, RobotSpec]) -> StudyPoint:
-    """Fill preset defaults, build the RobotSpec, check the combination."""
-    base = specs[raw["preset"]]
-    where = ", ".join(f"{k}={v}" for k, v in raw.items() if v is not None)
-    layout = raw["layout"]
-    if layout == "sdss-v-fps":
-        lay = point_layout("sdss-v-fps", 0, 0.0)
-        n_robots = lay.n_robots
-        if raw["pitch_mm"] is not None and abs(raw["pitch_mm"] - 22.4) > 1e-9:
-            raise StudyError(f"{source}: grid.pitch_mm = {raw['pitch_mm']} with layout = "
-                             "'sdss-v-fps' (point " + where + "); allowed: unset or 22.4 (the "
-                             "real focal plane has a fixed pitch)")
-        pitch = 22.4
-    else:
-        n_robots = raw["n_robots"]
-        pitch = raw["pitch_mm"] if raw["pitch_mm"] is not None else base.pitch_mm
-    la = raw["alpha_length_mm"] if raw["alpha_length_mm"] is not None else base.alpha_length_mm
-    lb = raw["beta_length_mm"] if raw["beta_length_mm"] is not None else base.beta_length_mm
-    buffer = raw["buffer_mm"] if raw["buffer_mm"] is not None else base.buffer_mm
-    if raw["segment_end_mm"] is not None:
-        seg = raw["segment_end_mm"]
-    elif isinstance(base.segment_end_mm, str):
-        seg = base.segment_end(buffer)           # e.g. the SDSS-V production rule
-    elif abs(float(base.segment_end_mm) - base.beta_length_mm) < 1e-12:
-        seg = lb                                 # the segment runs to the fiber: follow the arm
-    else:
-        seg = float(base.segment_end_mm)
-    fold = (raw["fold_alpha_deg"] if raw["fold_alpha_deg"] is not None else base.fold_deg[0],
-            raw["fold_beta_deg"] if raw["fold_beta_deg"] is not None else base.fold_deg[1])
-    try:
-        spec = base.with_overrides(pitch_mm=pitch, alpha_length_mm=la, beta_length_mm=lb,
-                                   segment_end_mm=float(seg), buffer_mm=buffer,
-                                   fold_deg=(float(fold[0]), float(fold[1])))
-    except RfpError as exc:
-        raise StudyError(f"{source}: grid point ({where}): {exc}") from None
-    if not buffer < pitch / 2:
-        raise StudyError(f"{source}: grid.buffer_mm = {buffer} at pitch_mm = {pitch} (point "
-                         f"{where}); allowed: buffer_mm < pitch_mm / 2 = {pitch / 2}")
-    alg = raw["algorithm"]
-    greed, phobia = (raw["greed"], raw["phobia"]) if alg == "markov" else (1.0, 0.0)
-    max_steps = raw["max_steps"] if raw["max_steps"] is not None else \
-        int(round(1000.0 / raw["step_deg"]))
-    return StudyPoint(preset=raw["preset"], layout=layout, n_robots=int(n_robots),
-                      pitch_mm=float(pitch), alpha_length_mm=float(la), beta_length_mm=float(lb),
-                      segment_end_mm=float(seg), fold_alpha_deg=float(fold[0]),
-                      fold_beta_deg=float(fold[1]), buffer_mm=float(buffer),
-                      step_deg=float(raw["step_deg"]), algorithm=alg, greed=float(greed),
-                      phobia=float(phobia), resolution=raw["resolution"],
-                      direction=raw["direction"], max_rounds=int(raw["max_rounds"]),
-                      max_steps=int(max_steps), spec=spec)
-

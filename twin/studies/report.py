@@ -17,7 +17,12 @@ figure                            drawn when                            paper
 ``fig17_efficiency_vs_grid``      n_robots has >= 2 values               Fig. 17
 ``fig18_runtime_vs_grid``         "                                     Fig. 18
 ``feasibility_map``               pitch / reach has >= 2 values          (new)
+``frontier``                      the folder has ``coverage.parquet``    (new)
 ================================  ====================================  ===================
+
+Design studies (``coverage = true``) also get the design frontier: coverage against
+targets kept and fold time per design point, search vs replace, Pareto frontiers, and a
+table of every design (:mod:`rfp_twin.twin.studies.frontier`).
 
 Lines follow the paper: MC blue solid, GC red dashed; box plots have whiskers at 1.5 IQR
 and outliers as diamonds; grid-size plots shade the 95 % confidence interval of the mean
@@ -42,7 +47,9 @@ from pathlib import Path
 
 import numpy as np
 
+from rfp_twin.twin.studies.coverage import COVERAGE_FILE
 from rfp_twin.twin.studies.figures import FIGURES, draw_figures
+from rfp_twin.twin.studies.frontier import frontier_section
 from rfp_twin.twin.studies.groups import (ALG_SHORT, SHORT, Group, fmt_num, fmt_val, load_groups,
                                  make_series, series_label, varied_params)
 from rfp_twin.twin.studies.paper import PAPER_FIG10, paper_sections
@@ -299,12 +306,20 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None, *,
         notes.append(f"{info['ignored_rows']} rows of grid points that are not in study.toml "
                      "were left out (use --all-points to include them).")
     drawn, skipped = draw_figures(groups, varied, out, notes)
+    design_lines: list[str] = []
+    design_figs: list[Path] = []
+    if (study_dir / COVERAGE_FILE).is_file():
+        design_lines, design_figs, why = frontier_section(study_dir, out,
+                                                          {g.point_id for g in groups})
+        if why:
+            skipped["frontier"] = why
     ok_groups = [g for g in groups if g.v("efficiency").size]
 
     lines = _head_section(study_dir, info, groups, varied)
     rep = _reproduce_line(ok_groups[0]) if ok_groups else ""
     if rep:
         lines += [rep, ""]
+    lines += design_lines
     lines += paper_sections(ok_groups)
     tl, trends = _trend_section(ok_groups, varied)
     lines += tl
@@ -324,4 +339,4 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None, *,
         lines += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
     md = replace_atomically(out / REPORT_MD,
                             lambda tmp: tmp.write_text("\n".join(lines), encoding="utf-8"))
-    return Report(md, [out / f"{n}.png" for n in drawn], skipped, trends, notes)
+    return Report(md, design_figs + [out / f"{n}.png" for n in drawn], skipped, trends, notes)

@@ -2,9 +2,12 @@
 
 :func:`run_study` checks its arguments and reaches the scheduler it is given before it
 writes anything (a bad address leaves no folder behind), then takes the study folder's
-writer lock, copies the definition to ``study.toml``, skips every trial already in
-``results/`` and runs the others (:mod:`rfp_twin.twin.studies.cluster`), writing each row as it
-comes back (:mod:`rfp_twin.twin.studies.store`).
+writer lock, copies the definition to ``study.toml``, measures the coverage of geometries
+not yet measured (studies with ``coverage = true``, :mod:`rfp_twin.twin.studies.coverage`),
+skips every trial already in ``results/`` and runs the others
+(:mod:`rfp_twin.twin.studies.cluster`), writing each row as it comes back
+(:mod:`rfp_twin.twin.studies.store`). When the study is complete, its per-trial files are
+consolidated into ``results/trials.parquet`` (:func:`~rfp_twin.twin.studies.store.consolidate_results`).
 """
 from __future__ import annotations
 
@@ -14,10 +17,12 @@ from pathlib import Path
 from typing import Callable
 
 from rfp_twin.twin.studies.cluster import batches, connect, drive, local_client
+from rfp_twin.twin.studies.coverage import update_coverage
 from rfp_twin.twin.studies.parse import is_int
 from rfp_twin.twin.studies.spec import Study, StudyError
-from rfp_twin.twin.studies.store import (COMPACT_AT, RESULTS, WriterLock, compact_results, data_files,
-                                default_out_dir, done_keys, write_study_copy)
+from rfp_twin.twin.studies.store import (COMPACT_AT, RESULTS, WriterLock, compact_results,
+                                         consolidate_results, data_files, default_out_dir,
+                                         done_keys, write_study_copy)
 
 __all__ = ["RunSummary", "run_study"]
 
@@ -30,7 +35,9 @@ class RunSummary:
     n_run : written by this run; n_errors / n_collisions : trials of this run with an
     error / with collisions found; seconds : from the first submission to the last
     result; setup_s : cluster start-up and resume scan; workers : Dask worker threads;
-    rate_per_min : n_run / seconds * 60; complete : every trial is written.
+    rate_per_min : n_run / seconds * 60; complete : every trial is written;
+    n_coverage : geometries whose coverage this run measured; consolidated : the file
+    the finished study's trials were merged into (None: not complete, or not asked).
     """
 
     study: str
@@ -45,6 +52,8 @@ class RunSummary:
     workers: int
     scheduler: str
     complete: bool
+    n_coverage: int = 0
+    consolidated: Path | None = None
 
     @property
     def rate_per_min(self) -> float:
@@ -54,7 +63,8 @@ class RunSummary:
 def run_study(study: Study, out_dir: str | Path | None = None, *, scheduler: str | None = None,
               workers: int | None = None, processes: bool = True, client=None,
               trials: int | None = None, max_trials: int | None = None,
-              progress: bool | Callable[[int, int], None] = True, console=None) -> RunSummary:
+              progress: bool | Callable[[int, int], None] = True, console=None,
+              consolidate: bool = True) -> RunSummary:
     """Run every trial of ``study`` not yet in ``out_dir/results``; write each as it finishes.
 
     Parameters
@@ -72,6 +82,8 @@ def run_study(study: Study, out_dir: str | Path | None = None, *, scheduler: str
     progress : True: a rich progress bar (trials done / total, trials per minute);
         a callable(done, total); or False.
     console : rich Console for messages and the bar (default stderr).
+    consolidate : merge the per-trial files into ``results/trials.parquet`` once every
+        trial is written (verified before the per-trial files are removed).
 
     Returns
     -------
@@ -96,6 +108,7 @@ def run_study(study: Study, out_dir: str | Path | None = None, *, scheduler: str
             for stale in results.glob(".*.tmp"):      # left by a killed run
                 stale.unlink(missing_ok=True)
             write_study_copy(out, study)
+            n_coverage = update_coverage(study, out) if study.coverage else 0
             if len(data_files(results)) >= COMPACT_AT:
                 compact_results(out)
             all_trials = study.trial_list(trials)
@@ -116,10 +129,13 @@ def run_study(study: Study, out_dir: str | Path | None = None, *, scheduler: str
                                       f"{'processes' if processes else 'threads'})"
                                       if own_cluster else str(client.scheduler.address))
             summary = RunSummary(study.name, out, len(all_trials), n_before, 0, 0, 0, 0.0,
-                                 time.perf_counter() - t_setup, n_threads, sched, False)
+                                 time.perf_counter() - t_setup, n_threads, sched, False,
+                                 n_coverage)
             if tasks:
                 drive(client, study, tasks, results, summary, n_threads, progress, console)
-            if len(data_files(results)) >= COMPACT_AT:
+            if summary.n_before + summary.n_run >= summary.n_total and consolidate:
+                summary.consolidated = consolidate_results(out)
+            elif len(data_files(results)) >= COMPACT_AT:
                 compact_results(out)
     finally:
         if own_client is not None:

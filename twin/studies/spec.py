@@ -43,11 +43,27 @@ Study file
     direction = "reverse"         # "reverse" | "forward"
     max_rounds = 50               # resolution rounds
     max_steps = 10000             # default: 1000 deg / step_deg (the paper's rule)
+    arm_ratio = [0.8, 1.0, 1.25]  # alpha / beta, the reach kept (models/arm_ratio.py)
+    pitch_over_reach = [1.0, 1.2] # the arms scaled to reach = pitch / value (pitch kept)
+    n_rafts = 2                   # layout = "raft" only: rafts of 63 robots (Spec-S5)
+
+Design studies (:mod:`~rfp_twin.twin.studies.resolve`, :mod:`~rfp_twin.twin.studies.frontier`)
+add ``[study]`` keys ``same_targets`` (grid keys whose values plan the same random targets, e.g.
+``["resolution"]``: search and replace on the same draws), ``coverage`` (measure the
+focal-plane coverage once per design geometry) and ``firmware`` (post-process every trial
+and record the firmware-ready fold time), and ``[[family]]`` tables: each is a robot
+family (its own preset, layout and axes, over the shared ``[grid]``); the study is the
+union of the families' products. The arm lengths of a point: ``alpha_length_mm`` /
+``beta_length_mm`` (default the preset's), scaled by ``pitch_over_reach``, then split by
+``arm_ratio``. Every new key is optional and absent from the trial keys of studies that
+do not use it, so older study folders resume as before.
 
 Unknown tables or keys and bad values raise :class:`StudyError` naming the file, the key
 and the allowed values. Shipped studies live in ``twin/study_files/*.toml`` (``sim1``,
 ``sim2``, ``sim3``: the paper's Simulations 1-3 at full size (Tables 1, 2, 4); ``*-small``:
-versions that finish in minutes on a laptop; ``density*``: pitch / reach x buffer maps).
+versions that finish in minutes on a laptop; ``density*``: pitch / reach x buffer maps;
+``design*``: coverage and feasibility over arm ratio x pitch / reach x buffer, two robot
+families, search vs replace on the same targets).
 
 Trials and seeds
 ----------------
@@ -76,7 +92,8 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import RobotSpec
 
 __all__ = ["StudyError", "StudyPoint", "Trial", "Study", "STUDY_KEYS", "GRID_KEYS",
-           "GRID_DEFAULTS", "PARAM_COLUMNS", "point_layout"]
+           "GRID_DEFAULTS", "PARAM_COLUMNS", "DESIGN_COLUMNS", "GEOMETRY_COLUMNS",
+           "SAME_TARGET_KEYS", "point_layout"]
 
 
 class StudyError(RfpError):
@@ -95,11 +112,15 @@ STUDY_KEYS = {
     "seed": "an integer >= 0 (base seed)",
     "check": "true | false (run the 2D checker on every trial)",
     "batch": "\"auto\" or an integer >= 1 (trials per Dask task)",
+    "same_targets": "a list of grid keys among resolution, max_rounds, direction, greed, "
+                    "phobia (their values plan the same targets)",
+    "coverage": "true | false (measure coverage once per design geometry)",
+    "firmware": "true | false (post-process trials: firmware-ready fold time)",
 }
 #: Keys of the [grid] table and what they hold.
 GRID_KEYS = {
     "preset": "a robot preset name or a path to a robot TOML",
-    "layout": "\"hex\" | \"sdss-v-fps\"",
+    "layout": "\"hex\" | \"sdss-v-fps\" | \"raft\" (n_rafts rafts of 63 robots)",
     "n_robots": "a centred hex count 1 + 3r(r+1) (7, 19, 37, 61, 91, ..., 547, ...)",
     "pitch_mm": "a number > 0 (mm)",
     "alpha_length_mm": "a number > 0 (mm)",
@@ -116,8 +137,13 @@ GRID_KEYS = {
     "direction": "reverse | forward",
     "max_rounds": "an integer >= 0",
     "max_steps": "an integer >= 1",
+    "arm_ratio": "a finite number in (0, inf) (alpha / beta; the reach is kept)",
+    "pitch_over_reach": "a finite number in (0, inf) (the arms are scaled; the pitch is kept)",
+    "n_rafts": "an integer >= 1 (rafts of 63 robots; layout = \"raft\" only)",
 }
-LAYOUTS = ("hex", "sdss-v-fps")
+LAYOUTS = ("hex", "sdss-v-fps", "raft")
+#: Grid keys whose values may share the random targets (``study.same_targets``).
+SAME_TARGET_KEYS = ("resolution", "max_rounds", "direction", "greed", "phobia")
 RESOLUTIONS = ("replace", "search", "none")
 ALGORITHM_ALIASES = {"greedy": "greedy", "gc": "greedy", "markov": "markov", "mc": "markov",
                      "apf": "apf", "capf": "capf"}
@@ -128,6 +154,7 @@ GRID_DEFAULTS = {
     "fold_alpha_deg": None, "fold_beta_deg": None, "buffer_mm": None, "step_deg": 0.1,
     "algorithm": "greedy", "greed": 0.9, "phobia": 0.3, "resolution": "replace",
     "direction": "reverse", "max_rounds": 50, "max_steps": None,
+    "arm_ratio": None, "pitch_over_reach": None, "n_rafts": None,
 }
 NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
@@ -136,15 +163,31 @@ PARAM_COLUMNS = ("preset", "layout", "n_robots", "pitch_mm", "alpha_length_mm",
                  "beta_length_mm", "segment_end_mm", "fold_alpha_deg", "fold_beta_deg",
                  "buffer_mm", "step_deg", "algorithm",
                  "greed", "phobia", "resolution", "direction", "max_rounds", "max_steps")
+#: Optional parameters of design studies: in a point's identity only when set (not None).
+DESIGN_COLUMNS = ("family", "arm_ratio", "pitch_over_reach", "n_rafts")
+#: Parameters that fix the focal-plane geometry (coverage depends on nothing else).
+GEOMETRY_COLUMNS = ("layout", "n_robots", "n_rafts", "pitch_mm", "alpha_length_mm",
+                    "beta_length_mm")
 
 
 @functools.lru_cache(maxsize=8)
-def point_layout(kind: str, n_robots: int, pitch_mm: float) -> Layout:
+def point_layout(kind: str, n_robots: int, pitch_mm: float, n_rafts: int | None = None) -> Layout:
     """The layout of a grid point: ``sdss-v-fps`` (the real focal plane; ``n_robots`` and
-    ``pitch_mm`` ignored) or a centred hex grid of ``n_robots`` at ``pitch_mm``."""
+    ``pitch_mm`` ignored), ``raft`` (``n_rafts`` Spec-S5 rafts of 63 robots at
+    ``pitch_mm``, :func:`rfp_twin.models.layout.rafts.raft_layout`) or a centred hex grid
+    of ``n_robots`` at ``pitch_mm``."""
     if kind == "sdss-v-fps":
         return Layout.sdss_v_fps()
+    if kind == "raft":
+        from rfp_twin.models.layout.rafts import raft_layout
+
+        return raft_layout(pitch_mm=pitch_mm, n_rafts=int(n_rafts or 1))
     return Layout.hex_grid_positions(n_robots, pitch_mm)
+
+
+def _short_hash(data: dict, n: int = 12) -> str:
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:n]
 
 
 # =====================================================================================
@@ -172,11 +215,43 @@ class StudyPoint:
     direction: str
     max_rounds: int
     max_steps: int
+    family: str | None = None
+    arm_ratio: float | None = None
+    pitch_over_reach: float | None = None
+    n_rafts: int | None = None
     spec: RobotSpec = field(compare=False, repr=False, default=None)  # type: ignore[assignment]
+    #: grid keys left out of the trial seed (``study.same_targets``)
+    seed_exclude: tuple = field(compare=False, repr=False, default=())
 
     def to_dict(self) -> dict[str, Any]:
-        """The parameters as plain Python values (the hash input)."""
-        return {k: getattr(self, k) for k in PARAM_COLUMNS}
+        """The parameters as plain Python values (the hash input): every
+        :data:`PARAM_COLUMNS` key, and the :data:`DESIGN_COLUMNS` keys that are set."""
+        out = {k: getattr(self, k) for k in PARAM_COLUMNS}
+        out.update((k, getattr(self, k)) for k in DESIGN_COLUMNS if getattr(self, k) is not None)
+        return out
+
+    @functools.cached_property
+    def design_id(self) -> str:
+        """12 hex digits naming the design point: the parameters but ``resolution`` (the
+        search and replace rows of one design share it)."""
+        return _short_hash({k: v for k, v in self.to_dict().items() if k != "resolution"})
+
+    @functools.cached_property
+    def geometry_id(self) -> str:
+        """12 hex digits naming the focal-plane geometry (layout, robots, pitch, arms):
+        the key of the coverage table."""
+        return _short_hash({k: getattr(self, k) for k in GEOMETRY_COLUMNS})
+
+    @functools.cached_property
+    def seed_canonical(self) -> str:
+        """The parameters the trial seed depends on (all but ``seed_exclude``)."""
+        d = {k: v for k, v in self.to_dict().items() if k not in self.seed_exclude}
+        return json.dumps(d, sort_keys=True, separators=(",", ":"))
+
+    def ids(self) -> dict[str, str]:
+        """``point_id``, ``design_id`` and ``geometry_id`` (row columns)."""
+        return {"point_id": self.point_id, "design_id": self.design_id,
+                "geometry_id": self.geometry_id}
 
     @functools.cached_property
     def canonical(self) -> str:
@@ -197,8 +272,9 @@ class StudyPoint:
         return hashlib.sha256(text.encode()).hexdigest()[:20]
 
     def trial_seed(self, base_seed: int, index: int) -> int:
-        """Seed of trial ``index`` (a non-negative int64 for ``numpy.random.default_rng``)."""
-        h = hashlib.sha256(self.canonical.encode()).digest()
+        """Seed of trial ``index`` (a non-negative int64 for ``numpy.random.default_rng``);
+        points that differ only in ``seed_exclude`` keys share it (the same targets)."""
+        h = hashlib.sha256(self.seed_canonical.encode()).digest()
         words = (int.from_bytes(h[0:4], "little"), int.from_bytes(h[4:8], "little"))
         ss = np.random.SeedSequence(entropy=int(base_seed), spawn_key=(*words, int(index)))
         return int(ss.generate_state(1, np.uint64)[0] >> np.uint64(1))
@@ -227,6 +303,10 @@ class Study:
     points : tuple of StudyPoint, the product of the grid (duplicates removed)
     source : str, file path or "study <name>"
     text : str, the TOML text
+    same_targets : tuple of grid keys whose values share the random targets
+    coverage : bool, measure coverage once per geometry (:mod:`~rfp_twin.twin.studies.coverage`)
+    firmware : bool, post-process trials (firmware-ready fold time)
+    families : tuple of family names (empty: the [grid] table alone)
     """
 
     name: str
@@ -240,6 +320,10 @@ class Study:
     points: tuple
     source: str
     text: str = field(repr=False, default="")
+    same_targets: tuple = ()
+    coverage: bool = False
+    firmware: bool = False
+    families: tuple = ()
 
     @property
     def n_trials(self) -> int:

@@ -3,9 +3,19 @@
 Layout of a study folder::
 
     study.toml                       a copy of the study definition
-    results/part-<key>.parquet       one trial (columns: :data:`SCHEMA`)
+    results/part-<key>.parquet       one trial (columns: :data:`SCHEMA`), while running
     results/compact-*.parquet        many trials merged (at :data:`COMPACT_AT` files)
+    results/trials.parquet           every trial, once the study is finished
     results/.lock                    flock of the run writing here
+    coverage.parquet                 design studies: coverage per geometry (:mod:`.coverage`)
+
+When a run leaves the study complete, :func:`consolidate_results` merges every data file
+of ``results/`` into ``results/trials.parquet`` (row groups of :data:`ROW_GROUP_ROWS`,
+sorted by point and trial), reads the written file back (row count and keys) and only
+then removes the files it replaces: ``pyarrow.parquet.read_table(folder)``,
+``pandas.read_parquet(folder)``, polars or DuckDB read the folder, or the one file, in one
+call. A later run (more trials) reads it to know what is done, adds part files again and
+consolidates again when complete.
 
 Each finished trial is written as ``results/part-<key>.parquet`` (to a hidden temporary
 name, then renamed: a kill never leaves half a row), and a run skips every key already
@@ -30,9 +40,10 @@ import pyarrow.parquet as pq
 
 from rfp_twin.twin.studies.spec import Study, StudyError
 
-__all__ = ["SCHEMA", "RESULTS", "STUDY_COPY", "COMPACT_AT", "COMPACT_PREFIX", "default_out_dir",
-           "results_dir", "write_row", "write_study_copy", "data_files", "read_results",
-           "done_keys", "compact_results", "replace_atomically", "WriterLock"]
+__all__ = ["SCHEMA", "RESULTS", "STUDY_COPY", "COMPACT_AT", "COMPACT_PREFIX", "CONSOLIDATED",
+           "ROW_GROUP_ROWS", "default_out_dir", "results_dir", "write_row", "write_study_copy",
+           "data_files", "read_results", "done_keys", "compact_results", "consolidate_results",
+           "write_verified", "replace_atomically", "WriterLock"]
 
 #: Part files in results/ at which a run merges them into one file (start and end).
 COMPACT_AT = 1000
@@ -41,6 +52,10 @@ STUDY_COPY = "study.toml"
 LOCK = ".lock"
 PART_PREFIX = "part-"
 COMPACT_PREFIX = "compact-"
+#: The one file of a finished study's trials (in results/).
+CONSOLIDATED = "trials.parquet"
+#: Rows per row group of merged files (readers can skip groups by point and trial).
+ROW_GROUP_ROWS = 8192
 
 #: One Parquet row per trial.
 SCHEMA = pa.schema([
@@ -90,6 +105,18 @@ SCHEMA = pa.schema([
     ("cpu_s", pa.float64()),           # CPU time of the worker thread in the trial
     ("worker", pa.string()),           # host:pid
     ("finished_utc", pa.timestamp("ms", tz="UTC")),
+    # design studies (null in older rows, which pyarrow fills in when it reads them)
+    ("family", pa.string()),           # [[family]] name (null: no families)
+    ("design_id", pa.string()),        # hash of the point but its resolution: search / replace pairs
+    ("geometry_id", pa.string()),      # hash of layout + pitch + arms: key of coverage.parquet
+    ("arm_ratio", pa.float64()),       # alpha / beta
+    ("n_rafts", pa.int32()),           # raft layouts only
+    ("kept", pa.float64()),            # robots at their own target / movable robots
+    ("targets_hash", pa.string()),     # SHA-256 of the drawn targets (equal: the same targets)
+    ("plan_s", pa.float64()),          # wall time of planning (runs, searches, replacements)
+    ("search_s", pa.float64()),        # of which in the deadlock search (resolution "search")
+    ("fold_fw_s", pa.float64()),       # firmware-ready fold: path delay + trajectory (study.firmware)
+    ("firmware_error", pa.string()),   # why post-processing failed (the plan's columns are kept)
 ])
 
 
@@ -179,6 +206,46 @@ def compact_results(study_dir: str | Path) -> Path | None:
     stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%f")
     final = replace_atomically(results / f"{COMPACT_PREFIX}{stamp}-{table.num_rows}.parquet",
                                lambda tmp: pq.write_table(table, tmp))
+    for f in files:
+        if f != final:
+            f.unlink(missing_ok=True)
+    return final
+
+
+def write_verified(dest: Path, table: pa.Table, *, sort: bool = True) -> Path:
+    """Write ``table`` to ``dest`` (hidden temporary, read back, then renamed).
+
+    The temporary must hold ``table.num_rows`` rows and the same set of keys, or a
+    StudyError is raised and ``dest`` is left as it was. ``sort``: rows by point and trial.
+    """
+    if sort and table.num_rows:
+        table = table.sort_by([("point_id", "ascending"), ("trial", "ascending")])
+    tmp = dest.with_name(f".{dest.name}.{os.getpid()}.tmp")
+    try:
+        pq.write_table(table, tmp, row_group_size=ROW_GROUP_ROWS)
+        n_back = pq.ParquetFile(tmp).metadata.num_rows
+        keys_back = pq.read_table(tmp, columns=["key"]).column("key").to_pylist()
+        if n_back != table.num_rows or set(keys_back) != set(table.column("key").to_pylist()):
+            raise StudyError(f"{dest}: the merged file read back has {n_back} rows, "
+                             f"{table.num_rows} were written; the per-trial files are kept")
+        os.replace(tmp, dest)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return dest
+
+
+def consolidate_results(study_dir: str | Path) -> Path | None:
+    """Merge every data file of ``results/`` into ``results/trials.parquet`` (verified),
+    then remove the others. Returns the file (None when there are no rows); a folder that
+    is already one consolidated file is left alone."""
+    results = results_dir(study_dir)
+    files = data_files(results)
+    if not files:
+        return None
+    final = results / CONSOLIDATED
+    if files == [final]:
+        return final
+    write_verified(final, read_results(results))
     for f in files:
         if f != final:
             f.unlink(missing_ok=True)

@@ -17,7 +17,8 @@ import pytest
 
 from tests.twin.studies.builders import DETERMINISTIC, TINY, rows_by_key, study_file
 from tests.twin.studies.test_cluster import free_port
-from rfp_twin.twin.studies import RESULTS, SCHEMA, StudyError, done_keys, load_study, read_results, run_study
+from rfp_twin.twin.studies import (CONSOLIDATED, RESULTS, SCHEMA, StudyError, consolidate_results,
+                                   done_keys, load_study, read_results, run_study)
 from rfp_twin.twin.studies import cluster
 from rfp_twin.twin.studies.store import WriterLock
 
@@ -87,8 +88,10 @@ def test_killed_study_resumes_with_every_trial_exactly_once(tmp_path):
     assert 12 <= n_killed < total, "the kill came too late to test a resume"
     before = done_keys(out)
 
-    s = run_study(study, out, workers=1, processes=False, progress=False)
+    # per-trial files kept (consolidate=False) to check each trial is written exactly once
+    s = run_study(study, out, workers=1, processes=False, progress=False, consolidate=False)
     assert s.n_before == n_killed and s.n_run == total - n_killed and s.complete
+    assert s.consolidated is None
     files = sorted(results.glob("part-*.parquet"))
     assert len(files) == total
     assert not list(results.glob(".*.tmp"))
@@ -103,6 +106,10 @@ def test_killed_study_resumes_with_every_trial_exactly_once(tmp_path):
     table = read_results(out)
     assert table.num_rows == total
     assert sorted(table.column("trial").to_pylist()) == sorted(t.index for t in study.trial_list())
+    # then merged into one file, the per-trial files removed
+    merged = consolidate_results(out)
+    assert [p.name for p in results.glob("*.parquet")] == [CONSOLIDATED] == [merged.name]
+    assert pq.read_table(results).num_rows == total
 
 
 def test_partial_runs_and_more_trials_later(tmp_path):
