@@ -7,7 +7,8 @@ from typing import Optional
 from rfp_twin.models.errors import LayoutError
 
 LAYOUT_HELP = ("sdss-v-fps (design focal plane) | sdss-v-apo | sdss-v-lco (the calibrated SDSS-V "
-               "instruments) | sdss-v-curved (curved wok, CMM) | sdss-v-547 | hex:N | CSV file "
+               "instruments) | sdss-v-curved (curved wok, CMM) | sdss-v-547 | hex:N | raft:N (N "
+               "Spec-S5 rafts of 63 robots; raft:R=MM within a radius) | CSV file "
                "[default: sdss-v-fps for SDSS-V presets, hex:547 otherwise]")
 CALIBRATION_HELP = ("Folder of SDSS-V calibration files (wokCoords.csv, positionerTable.csv, "
                     "fiducialCoords.csv; e.g. a newer fps_calibrations release) to plan on "
