@@ -41,7 +41,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from rfp_twin.validation.mesh3d.bounds import (link_bound_at, obj_alpha, obj_plane, pair_slack,
                                                pose, store_pose_bounds_at)
@@ -110,10 +110,71 @@ def _n_coarse(span, speed, coarse_mm, resolution):
 
 
 @njit(cache=True)
+def _capsule_min_pair(p, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
+                      pa, ta, aa, ra, pb, tb, ab, rb, kptr, cap, zlim, pptr, pxy, rad_a, rad_b,
+                      vglob, vmean, t_lo, t_hi, coarse_mm, tight_mm, resolution, thr, tol, rel,
+                      st):
+    """:func:`capsule_min` of link pair ``p`` with the bisection stack ``st`` (STACK, 4):
+    (cmin, tmin, cert, evaluations)."""
+    span = t_hi - t_lo
+    n_eval = 0
+    oa, ob, ka, kb = lp_oa[p], lp_ob[p], lp_ka[p], lp_kb[p]
+    lg = vglob[oa, ka] + vglob[ob, kb]
+    n = _n_coarse(span, vmean[oa, ka] + vmean[ob, kb], coarse_mm, resolution)
+    if lg == 0.0:
+        n = 1
+    tbest = t_lo
+    prev_t = t_lo
+    prev_f = bound_at(p, t_lo, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
+                      pa, ta, aa, pb, tb, ab, kptr, cap, zlim, pptr, pxy, np.inf)
+    n_eval += 1
+    best = prev_f
+    leaf_min = np.inf
+    for g in range(1, n + 1):
+        t = t_lo + span * g / n if g < n else t_hi
+        f = bound_at(p, t, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
+                     pa, ta, aa, pb, tb, ab, kptr, cap, zlim, pptr, pxy, best + tight_mm)
+        n_eval += 1
+        if f < best:
+            best = f
+            tbest = t
+        # refine [prev_t, t] depth first
+        top = push(st, 0, prev_t, t, prev_f, f)
+        while top > 0:
+            top -= 1
+            a, b, fa, fb = st[top, 0], st[top, 1], st[top, 2], st[top, 3]
+            h = b - a
+            want = best - tol - rel * max(best - thr, 0.0)
+            lb = 0.5 * (fa + fb - lg * h)
+            if lb >= want:
+                leaf_min = min(leaf_min, lb)
+                continue
+            loc = (_link_speed(oa, ka, a, b, obj_rob, pa, ta, ra, pb, tb, rb, rad_a, rad_b)
+                   + _link_speed(ob, kb, a, b, obj_rob, pa, ta, ra, pb, tb, rb, rad_a, rad_b))
+            lb = 0.5 * (fa + fb - loc * h)
+            if lb >= want or h <= resolution or top + 2 > STACK:
+                leaf_min = min(leaf_min, lb)
+                continue
+            m = a + 0.5 * h
+            fm = bound_at(p, m, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
+                          pa, ta, aa, pb, tb, ab, kptr, cap, zlim, pptr, pxy,
+                          best + tight_mm)
+            n_eval += 1
+            if fm < best:
+                best = fm
+                tbest = m
+            top = push_halves(st, top, a, m, b, fa, fm, fb)
+        prev_t = t
+        prev_f = f
+    return best, tbest, min(leaf_min, best), n_eval
+
+
+@njit(cache=True, parallel=True)
 def capsule_min(lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
                 pa, ta, aa, ra, pb, tb, ab, rb, kptr, cap, zlim, pptr, pxy, rad_a, rad_b,
                 vglob, vmean, t_lo, t_hi, coarse_mm, tight_mm, resolution, thr, tol, rel):
-    """Per link pair, the smallest lower bound C over [t_lo, t_hi] (within tolerance).
+    """Per link pair, the smallest lower bound C over [t_lo, t_hi] (within tolerance);
+    link pairs in parallel (numba threads), each on its own.
 
     Returns (cmin (n,), tmin (n,), cert (n,), evaluations). ``cert[p]`` is a value
     that the interval bound of every leaf of the bisection reached, so ``C(t) >=
@@ -124,62 +185,14 @@ def capsule_min(lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
     cmin = np.empty(n_lp)
     tmin = np.empty(n_lp)
     cert = np.empty(n_lp)
-    n_eval = 0
-    st = np.empty((STACK, 4))
-    span = t_hi - t_lo
-    for p in range(n_lp):
-        oa, ob, ka, kb = lp_oa[p], lp_ob[p], lp_ka[p], lp_kb[p]
-        lg = vglob[oa, ka] + vglob[ob, kb]
-        n = _n_coarse(span, vmean[oa, ka] + vmean[ob, kb], coarse_mm, resolution)
-        if lg == 0.0:
-            n = 1
-        tbest = t_lo
-        prev_t = t_lo
-        prev_f = bound_at(p, t_lo, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
-                          pa, ta, aa, pb, tb, ab, kptr, cap, zlim, pptr, pxy, np.inf)
-        n_eval += 1
-        best = prev_f
-        leaf_min = np.inf
-        for g in range(1, n + 1):
-            t = t_lo + span * g / n if g < n else t_hi
-            f = bound_at(p, t, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
-                         pa, ta, aa, pb, tb, ab, kptr, cap, zlim, pptr, pxy, best + tight_mm)
-            n_eval += 1
-            if f < best:
-                best = f
-                tbest = t
-            # refine [prev_t, t] depth first
-            top = push(st, 0, prev_t, t, prev_f, f)
-            while top > 0:
-                top -= 1
-                a, b, fa, fb = st[top, 0], st[top, 1], st[top, 2], st[top, 3]
-                h = b - a
-                want = best - tol - rel * max(best - thr, 0.0)
-                lb = 0.5 * (fa + fb - lg * h)
-                if lb >= want:
-                    leaf_min = min(leaf_min, lb)
-                    continue
-                loc = (_link_speed(oa, ka, a, b, obj_rob, pa, ta, ra, pb, tb, rb, rad_a, rad_b)
-                       + _link_speed(ob, kb, a, b, obj_rob, pa, ta, ra, pb, tb, rb, rad_a, rad_b))
-                lb = 0.5 * (fa + fb - loc * h)
-                if lb >= want or h <= resolution or top + 2 > STACK:
-                    leaf_min = min(leaf_min, lb)
-                    continue
-                m = a + 0.5 * h
-                fm = bound_at(p, m, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
-                              pa, ta, aa, pb, tb, ab, kptr, cap, zlim, pptr, pxy,
-                              best + tight_mm)
-                n_eval += 1
-                if fm < best:
-                    best = fm
-                    tbest = m
-                top = push_halves(st, top, a, m, b, fa, fm, fb)
-            prev_t = t
-            prev_f = f
-        cmin[p] = best
-        tmin[p] = tbest
-        cert[p] = min(leaf_min, best)
-    return cmin, tmin, cert, n_eval
+    evals = np.zeros(n_lp, dtype=np.int64)
+    for p in prange(n_lp):
+        st = np.empty((STACK, 4))
+        cmin[p], tmin[p], cert[p], evals[p] = _capsule_min_pair(
+            p, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la, pa, ta, aa, ra, pb, tb,
+            ab, rb, kptr, cap, zlim, pptr, pxy, rad_a, rad_b, vglob, vmean, t_lo, t_hi,
+            coarse_mm, tight_mm, resolution, thr, tol, rel, st)
+    return cmin, tmin, cert, evals.sum()
 
 
 @njit(cache=True)
