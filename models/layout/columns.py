@@ -248,12 +248,13 @@ def fit_to_limits(angles: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, n
     return a, inside
 
 
-def robot_frame_origins(layout, fiber_z_mm: float) -> np.ndarray:
+def robot_frame_origins(layout, fiber_z_mm: float, axes: np.ndarray | None = None) -> np.ndarray:
     """(n_robots, 3) float64 origin of each robot's frame, mm: the point of its alpha axis
     ``fiber_z_mm`` below its focal-surface point ``(x, y, z_mm)`` (the robot stands on its
     axis ``k``, its fibers at the surface): ``(x, y, z_mm) - fiber_z_mm (k - e_z)``, height
-    relative to the flat wok's robot frames. Exactly ``(x, y, z_mm)`` for an upright robot."""
-    k = robot_axes(layout)
+    relative to the flat wok's robot frames. Exactly ``(x, y, z_mm)`` for an upright robot.
+    ``axes``: :func:`robot_axes` of the layout when the caller already has it."""
+    k = robot_axes(layout) if axes is None else axes
     out = np.column_stack([layout.robot_xy, robot_column(layout, "z_mm", 0.0)]).reshape(-1, 3)
     tilted = (k[:, 0] != 0.0) | (k[:, 1] != 0.0)
     k_minus_z = k[tilted] - np.array([0.0, 0.0, 1.0])

@@ -25,8 +25,8 @@ carried). The whole robot is tilted so that its alpha axis is along ``(kx, ky, k
 smallest rotation taking z to that axis: the arm's alpha = 0 direction stays as close to +x
 as the tilt allows) and stands on that axis so that its axis meets the focal surface at the
 layout's ``(x_mm, y_mm)``, ``z_mm`` above the flat focal plane: its base is ``fiber_z_mm``
-back along the axis from there (:func:`rfp_twin.models.layout.columns.robot_frame_origins`). Blank columns give the
-nominal robot, bit for bit.
+back along the axis from there (:func:`rfp_twin.models.layout.columns.robot_frame_origins`).
+Blank columns give the nominal robot, bit for bit.
 
 Obstacles (:func:`obstacle_shapes`): a point obstacle (a fiducial) is the fiducial post at
 its xy; a segment obstacle (a ``gfa`` row with ``x2_mm, y2_mm``: a guide-camera chip edge)
@@ -153,7 +153,7 @@ def robot_frames(layout: Layout, geometry: RobotGeometry) -> RobotFrames:
     fibers = np.empty((n, len(p.fibers), 2))
     for c, (f, x, y) in enumerate(p.fibers):
         fibers[:, c] = own[:, FIBERS.index(f)] if f in FIBERS else (x, y)
-    origin = robot_frame_origins(layout, p.fiber_z_mm)
+    origin = robot_frame_origins(layout, p.fiber_z_mm, k)
     return RobotFrames(la, z, origin, quat, tilted, fibers)
 
 

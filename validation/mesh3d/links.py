@@ -353,7 +353,7 @@ def placement(layout, models: LinkModels) -> Placement | None:
     if len(a) and len(z) and np.any(z != 0.0):
         d2 = ((((a + b) / 2.0)[:, None, :] - layout.robot_xy[None]) ** 2).sum(axis=2)
         oz = z[np.argmin(d2, axis=1)]
-    out = Placement(la, robot_frame_origins(layout, models.geometry.params.fiber_z_mm), rot,
+    out = Placement(la, robot_frame_origins(layout, models.geometry.params.fiber_z_mm, k), rot,
                     tilted, a, b, oz)
     if np.all(la == models.l_alpha) and not tilted.any() and not z.any() and not oz.any() \
             and not out.wall.any():
