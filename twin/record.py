@@ -44,7 +44,9 @@ import rerun as rr
 
 from rfp_twin.models.errors import RfpError
 from rfp_twin.models.mjcf import RGBA, VISUAL_GROUP, TwinModel
+from rfp_twin.models.mjcf.tiled_twin import TiledTwin
 from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.record_poses import link_poses, model_parts
 from rfp_twin.twin.sim import SimReport, SimSettings, simulate
 
 #: Name of the time line.
@@ -94,20 +96,6 @@ def _xyzw(wxyz: np.ndarray) -> np.ndarray:
     """MuJoCo (w, x, y, z) quaternions -> Rerun (x, y, z, w)."""
     q = np.asarray(wxyz, dtype=np.float64)
     return np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
-
-
-def _quat_conj(q: np.ndarray) -> np.ndarray:
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
-
-
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product of (..., 4) (w, x, y, z) quaternions (broadcasting)."""
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack([aw * bw - ax * bx - ay * by - az * bz,
-                     aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw], axis=-1)
 
 
 def _rgba8(rgba) -> list[int]:
@@ -161,7 +149,7 @@ def _summary_markdown(report: SimReport) -> str:
 
 
 # -- the recording ----------------------------------------------------------------------------
-def record_run(twin: TwinModel, trajectory: Trajectory | None, out_rrd: str | Path,
+def record_run(twin: TwinModel | TiledTwin, trajectory: Trajectory | None, out_rrd: str | Path,
                sim_report: SimReport | None = None, faults=(),
                sim_settings: SimSettings | None = None,
                settings: RecordSettings | None = None) -> Path:
@@ -169,7 +157,7 @@ def record_run(twin: TwinModel, trajectory: Trajectory | None, out_rrd: str | Pa
 
     Parameters
     ----------
-    twin : TwinModel (not modified)
+    twin : TwinModel, or a tiled twin (:mod:`rfp_twin.models.mjcf.tiled_twin`) (not modified)
     trajectory : what to simulate (ignored when ``sim_report`` is given)
     out_rrd : path of the recording (written atomically)
     sim_report : a finished simulation with its record; default: simulate ``trajectory``
@@ -211,13 +199,11 @@ def record_run(twin: TwinModel, trajectory: Trajectory | None, out_rrd: str | Pa
     return out
 
 
-def _log_run(rec: rr.RecordingStream, twin: TwinModel, report: SimReport,
+def _log_run(rec: rr.RecordingStream, twin, report: SimReport,
              settings: RecordSettings) -> None:
-    m = twin.model
-    idx = twin.index
     geometry = twin.geometry
     record = report.record
-    n = idx.n_robots
+    robot_ids = np.asarray(twin.layout.robot_ids)
     # samples to log
     times = np.asarray(record.times, float)
     angles = np.asarray(record.angles, float)
@@ -227,71 +213,47 @@ def _log_run(rec: rr.RecordingStream, twin: TwinModel, report: SimReport,
         if sel[-1] != times.size - 1:
             sel = np.append(sel, times.size - 1)
         times, angles = times[sel], angles[sel]
-    T = times.size
 
     rec.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     rec.log("summary", rr.TextDocument(_summary_markdown(report),
                                        media_type=rr.MediaType.MARKDOWN), static=True)
 
     # kinematics at every sample: link poses (relative to the parent link) and fiber tips
-    d = mujoco.MjData(m)
-    fibers = idx.fiber_names
+    fibers = tuple(n for n, _, _ in geometry.params.fibers)
     trace = fibers if settings.trace_fibers is None else tuple(settings.trace_fibers)
     unknown = [f for f in trace if f not in fibers]
     if unknown:
         raise RecordError(f"field 'trace_fibers' = {unknown}; allowed: {', '.join(fibers)}")
-    trace_cols = [fibers.index(f) for f in trace]
-    q_alpha = np.empty((T, n, 4))
-    q_beta = np.empty((T, n, 4))
-    tips = np.empty((T, n, len(trace_cols), 3))
-    qadr = idx.qpos_adr.ravel()
-    sites = idx.fiber_site[:, trace_cols]
-    carried = sites >= 0                   # (n, k): a robot without that fiber has no site
-    for k in range(T):
-        d.qpos[qadr] = np.radians(angles[k]).ravel()
-        mujoco.mj_kinematics(m, d)
-        q_alpha[k] = d.xquat[idx.alpha_body]
-        q_beta[k] = d.xquat[idx.beta_body]
-        tips[k] = d.site_xpos[sites]
-    tips[:, ~carried] = np.nan
-    q_base = d.xquat[idx.base_body].copy()
-    # link frames relative to their parents: alpha in the robot frame, beta in alpha's
-    rel_alpha = _quat_mul(_quat_conj(q_base)[None], q_alpha)
-    rel_beta = _quat_mul(_quat_conj(q_alpha), q_beta)
-    t_alpha = np.asarray(m.body_pos)[idx.alpha_body]  # constant offsets from the parent
-    t_beta = np.asarray(m.body_pos)[idx.beta_body]
+    poses = link_poses(twin, angles, [fibers.index(f) for f in trace])
+    carried = ~np.isnan(poses.tips[0, :, :, 0]) if len(times) else np.zeros((0, len(trace)), bool)
 
     # static: robot frames, meshes, fibers in the beta frame
     meshes = geometry.link_meshes("visual")
-    fiber_local = np.asarray(m.site_pos)[idx.fiber_site]  # (n, k, 3) in the beta body frame
-    has_fiber = idx.fiber_site >= 0
     fiber_colors = [_rgba8(FIBER_RGBA.get(f, DEFAULT_FIBER_RGBA)) for f in fibers]
     mesh_arch = {name: _mesh3d(meshes[name], RGBA[name]) for name in ("body", "alpha", "beta")}
-    for k, rid in enumerate(idx.robot_ids):
+    for k, rid in enumerate(robot_ids):
         root = f"robots/{int(rid)}"
-        rec.log(root, rr.Transform3D(translation=d.xpos[idx.base_body[k]],
-                                     quaternion=_xyzw(q_base[k])), static=True)
+        rec.log(root, rr.Transform3D(translation=poses.base_pos[k],
+                                     quaternion=_xyzw(poses.base_quat[k])), static=True)
         for name, path in (("body", "body"), ("alpha", "alpha"), ("beta", "alpha/beta")):
             rec.log(f"{root}/{path}", mesh_arch[name], static=True)
-        own = np.flatnonzero(has_fiber[k])
+        own = np.flatnonzero(poses.has_fiber[k])
         rec.log(f"{root}/alpha/beta/fibers",
-                rr.Points3D(fiber_local[k, own], radii=FIBER_RADIUS_MM,
+                rr.Points3D(poses.fiber_local[k, own], radii=FIBER_RADIUS_MM,
                             colors=[fiber_colors[c] for c in own],
                             labels=[fibers[c] for c in own]), static=True)
-    _log_obstacles(rec, m, d, idx, meshes)
-    plate = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "focal_plate")
-    if plate >= 0:
-        rec.log("plate", rr.Boxes3D(centers=[d.geom_xpos[plate]], half_sizes=[m.geom_size[plate]],
-                                    colors=[_rgba8(RGBA["plate"])],
-                                    fill_mode=rr.components.FillMode.Solid), static=True)
+    parts = model_parts(twin)
+    _log_obstacles(rec, parts, meshes)
+    _log_plate(rec, parts)
 
     # poses over time: only samples where the robot moved
     keep = _changed(angles, POSE_EPS_DEG)
-    for k, rid in enumerate(idx.robot_ids):
+    for k, rid in enumerate(robot_ids):
         rows = np.flatnonzero(keep[:, k])
         tcol = [rr.TimeColumn(TIMELINE, duration=times[rows])]
         root = f"robots/{int(rid)}"
-        for path, t_rel, q_rel in (("alpha", t_alpha, rel_alpha), ("alpha/beta", t_beta, rel_beta)):
+        for path, t_rel, q_rel in (("alpha", poses.t_alpha, poses.rel_alpha),
+                                   ("alpha/beta", poses.t_beta, poses.rel_beta)):
             rec.send_columns(f"{root}/{path}", indexes=tcol,
                              columns=rr.Transform3D.columns(
                                  translation=np.repeat(t_rel[k][None], rows.size, axis=0),
@@ -300,42 +262,62 @@ def _log_run(rec: rr.RecordingStream, twin: TwinModel, report: SimReport,
     # fiber traces over the whole run (robots that carry that fiber)
     for c, name in enumerate(trace):
         own = np.flatnonzero(carried[:, c])
-        strips = [_strip(tips[:, k, c]) for k in own]
+        strips = [_strip(poses.tips[:, k, c]) for k in own]
         rec.log(f"traces/{name}",
                 rr.LineStrips3D(strips, radii=TRACE_RADIUS_MM,
                                 colors=[_rgba8(FIBER_RGBA.get(name, DEFAULT_FIBER_RGBA))] * len(own),
-                                labels=[f"r{int(idx.robot_ids[k])}" for k in own]), static=True)
+                                labels=[f"r{int(robot_ids[k])}" for k in own]), static=True)
 
     if settings.contacts:
         _log_contacts(rec, report, np.asarray(record.times, float))
 
 
-def _log_obstacles(rec: rr.RecordingStream, m: mujoco.MjModel, d: mujoco.MjData, idx,
-                   meshes: dict) -> None:
-    """Static obstacles: a fiducial post as the fiducial mesh at its body pose
-    (``fiducials/<id>``), a guide-camera edge as its wall box (``gfa/<id>``: the collision
-    box of the model, world centre, half sizes and orientation)."""
+def _log_plate(rec: rr.RecordingStream, parts) -> None:
+    """The focal plate as one box: the model's, or the box around every tile's plate."""
+    lo, hi = [], []
+    for m, d, _ in parts:
+        plate = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "focal_plate")
+        if plate >= 0:
+            lo.append(d.geom_xpos[plate] - m.geom_size[plate])
+            hi.append(d.geom_xpos[plate] + m.geom_size[plate])
+    if lo:
+        lo, hi = np.min(lo, axis=0), np.max(hi, axis=0)
+        rec.log("plate", rr.Boxes3D(centers=[(lo + hi) / 2.0], half_sizes=[(hi - lo) / 2.0],
+                                    colors=[_rgba8(RGBA["plate"])],
+                                    fill_mode=rr.components.FillMode.Solid), static=True)
+
+
+def _log_obstacles(rec: rr.RecordingStream, parts, meshes: dict) -> None:
+    """Static obstacles, each once (a tiled twin carries one in every tile near it): a
+    fiducial post as the fiducial mesh at its body pose (``fiducials/<id>``), a
+    guide-camera edge as its wall box (``gfa/<id>``: the collision box of the model,
+    world centre, half sizes and orientation)."""
     fid_arch = None
-    for j, fid in enumerate(idx.fiducial_ids):
-        body = int(idx.fiducial_body[j])
-        geoms = np.flatnonzero((np.asarray(m.geom_bodyid) == body)
-                               & (np.asarray(m.geom_type) == mujoco.mjtGeom.mjGEOM_BOX)
-                               & (np.asarray(m.geom_group) == VISUAL_GROUP))
-        if geoms.size:
-            quats = np.empty((geoms.size, 4))
-            for q, g in zip(quats, geoms):
-                mujoco.mju_mat2Quat(q, d.geom_xmat[g])
-            rec.log(f"gfa/{int(fid)}",
-                    rr.Boxes3D(centers=d.geom_xpos[geoms], half_sizes=m.geom_size[geoms],
-                               quaternions=_xyzw(quats), colors=[_rgba8(RGBA["fiducial"])],
-                               fill_mode=rr.components.FillMode.Solid), static=True)
-            continue
-        if fid_arch is None:
-            fid_arch = _mesh3d(meshes["fiducial"], RGBA["fiducial"])
-        path = f"fiducials/{int(fid)}"
-        rec.log(path, fid_arch, static=True)
-        rec.log(path, rr.Transform3D(translation=d.xpos[body], quaternion=_xyzw(d.xquat[body])),
-                static=True)
+    done = set()
+    for m, d, idx in parts:
+        for j, fid in enumerate(idx.fiducial_ids):
+            if int(fid) in done:
+                continue
+            done.add(int(fid))
+            body = int(idx.fiducial_body[j])
+            geoms = np.flatnonzero((np.asarray(m.geom_bodyid) == body)
+                                   & (np.asarray(m.geom_type) == mujoco.mjtGeom.mjGEOM_BOX)
+                                   & (np.asarray(m.geom_group) == VISUAL_GROUP))
+            if geoms.size:
+                quats = np.empty((geoms.size, 4))
+                for q, g in zip(quats, geoms):
+                    mujoco.mju_mat2Quat(q, d.geom_xmat[g])
+                rec.log(f"gfa/{int(fid)}",
+                        rr.Boxes3D(centers=d.geom_xpos[geoms], half_sizes=m.geom_size[geoms],
+                                   quaternions=_xyzw(quats), colors=[_rgba8(RGBA["fiducial"])],
+                                   fill_mode=rr.components.FillMode.Solid), static=True)
+                continue
+            if fid_arch is None:
+                fid_arch = _mesh3d(meshes["fiducial"], RGBA["fiducial"])
+            path = f"fiducials/{int(fid)}"
+            rec.log(path, fid_arch, static=True)
+            rec.log(path, rr.Transform3D(translation=d.xpos[body],
+                                         quaternion=_xyzw(d.xquat[body])), static=True)
 
 
 def _log_contacts(rec: rr.RecordingStream, report: SimReport, grid: np.ndarray) -> None:

@@ -15,6 +15,7 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.mjcf.cameras import closeup_pose, quat_to_mat
 from rfp_twin.models.mjcf.index import ModelIndex
 from rfp_twin.models.mjcf.options import ModelOptions
+from rfp_twin.models.mjcf.tiles import contact_reach_mm
 from rfp_twin.models.robot import RobotSpec
 
 
@@ -78,19 +79,10 @@ class TwinModel:
         return xyz
 
     def neighbour_pairs(self) -> np.ndarray:
-        """(p, 2) robot index pairs whose parts can touch (bases within twice the reach
-        of the largest moving piece: with the longest alpha arm of the model and, for tilted
-        robots, the sideways shift of the highest point of a tilted robot)."""
-        m = self.model
-        longest = float(m.body_pos[self.index.beta_body, 0].max())
-        extra = max(0.0, longest - float(self.geometry.link_offset("beta")[0]))
-        reach = max(self.geometry.beta_reach_mm() + extra, self.geometry.alpha_reach_mm())
-        w = m.body_quat[self.index.base_body]
-        sin_tilt = float(np.max(2.0 * np.hypot(w[:, 1], w[:, 2]) * np.abs(w[:, 0]))) \
-            if len(w) else 0.0
-        if sin_tilt > 0.0:
-            reach += sin_tilt * self.geometry.params.fiber_z_mm
-        return self.layout.neighbour_pairs(2.0 * reach)
+        """(p, 2) robot index pairs whose parts can touch: bases within twice
+        :func:`rfp_twin.models.mjcf.tiles.contact_reach_mm` (the longest alpha arm of the
+        layout and, for tilted robots, the sideways shift of their highest point)."""
+        return self.layout.neighbour_pairs(2.0 * contact_reach_mm(self.layout, self.geometry))
 
     def aim_closeup(self, robot_id: int, distance_mm: float | None = None) -> None:
         """Point the ``closeup`` camera at one robot (oblique view from the south-west)."""

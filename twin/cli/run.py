@@ -20,6 +20,8 @@ from rfp_twin.twin.cli.plan import parse_ids
 model_app = typer.Typer(no_args_is_help=True, help="The MuJoCo model of an array.")
 
 #: Fault options: (option, fault class name in rfp_twin.twin.sim, number of fields, form).
+TILE_HELP = ("Simulate in tiles of at most this many robots (0: one MuJoCo model) [default: "
+             "tiles of 512 above 2,000 robots].")
 _FAULTS = (("--stuck", "Stuck", 2, "ID:TIME_S"), ("--slow", "Slow", 2, "ID:FACTOR"),
            ("--encoder-offset", "EncoderOffset", 3, "ID:ALPHA_DEG:BETA_DEG"))
 
@@ -41,17 +43,27 @@ def parse_faults(stuck: list[str], slow: list[str], offset: list[str]) -> list:
     return faults
 
 
-def build_with_progress(spec, lay, options=None):
-    """The MuJoCo twin of ``lay``, built under a progress bar (robots added, then MuJoCo's
-    compile, which takes most of the time on large arrays)."""
+def build_with_progress(spec, lay, options=None, tile_robots: int | None = None):
+    """The MuJoCo twin of ``lay``, built under a progress bar: one model (robots added, then
+    MuJoCo's compile), or, above :data:`TILE_ABOVE_ROBOTS` robots or when ``tile_robots``
+    > 0, a tiled twin of tiles of at most that many robots (0: one model)."""
     from rfp_twin.models.mjcf import build_model
+    from rfp_twin.models.mjcf.tiled_twin import build_tiled
+    from rfp_twin.models.mjcf.tiles import TILE_ABOVE_ROBOTS, TILE_ROBOTS
 
+    if tile_robots is not None and tile_robots < 0:
+        raise RfpError(f"--tile-robots {tile_robots}; allowed: 0 (one model) or a number of "
+                       "robots >= 1")
+    if tile_robots is None:
+        tile_robots = TILE_ROBOTS if lay.n_robots > TILE_ABOVE_ROBOTS else 0
     with progress_bar("building model", "{task.completed}/{task.total}") as progress:
         task = progress.add_task("robots", total=lay.n_robots)
 
         def step(stage: str, done: int, total: int) -> None:
             progress.update(task, description=stage, completed=done, total=total)
 
+        if tile_robots:
+            return build_tiled(spec, lay, options=options, max_robots=tile_robots, progress=step)
         return build_model(spec, lay, options=options, progress=step)
 
 
@@ -94,6 +106,7 @@ def simulate(
     slow: list[str] = typer.Option([], help="Fault: robot running slow, ID:FACTOR."),
     encoder_offset: list[str] = typer.Option([], help="Fault: encoder offset, ID:ALPHA_DEG:BETA_DEG."),
     timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
+    tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
 ) -> None:
     """Run the plan in the MuJoCo twin; writes RUN/sim.json; exit 4 on any robot contact."""
     from rfp_twin.models.mjcf import ModelOptions
@@ -101,7 +114,7 @@ def simulate(
 
     spec, lay, traj, _ = load_run(run)
     faults = parse_faults(stuck, slow, encoder_offset)
-    twin = build_with_progress(spec, lay, ModelOptions(timestep_s=timestep))
+    twin = build_with_progress(spec, lay, ModelOptions(timestep_s=timestep), tile_robots)
     report = simulate_with_progress(twin, traj, faults)
     report.to_json(Path(run) / "sim.json")
     console.print(report.table())
@@ -149,6 +162,7 @@ def record(
     out: Path = typer.Option(Path("run.rrd"), help=".rrd file to write."),
     fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
     dt: Optional[float] = typer.Option(None, help="Seconds between logged poses [default 0.02]."),
+    tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
 ) -> None:
     """Simulate a run and write a rerun recording: arm poses, fiber traces, contacts."""
     from rfp_twin.twin.record import RecordSettings, record_run
@@ -156,7 +170,7 @@ def record(
 
     spec, lay, traj, _ = load_run(run, to_fold=fold)
     settings = RecordSettings(dt_s=dt)
-    twin = build_with_progress(spec, lay)
+    twin = build_with_progress(spec, lay, tile_robots=tile_robots)
     sim_report = simulate_with_progress(twin, traj, record=True)
     with err_console.status("recording"):
         path = record_run(twin, traj, out, sim_report=sim_report, settings=settings)

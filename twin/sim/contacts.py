@@ -75,11 +75,16 @@ class ContactRecorder:
     ----------
     index : the model's :class:`rfp_twin.models.mjcf.ModelIndex` (geom -> robot / fiducial index,
         robot and fiducial ids)
+    owned : (n,) bool, optional: for a tile of a tiled twin
+        (:mod:`rfp_twin.models.mjcf.tiled_twin`), the robots it owns. A row is kept only
+        where the robot with the lower id is owned (a contact across two tiles is seen by
+        both; the tile owning the lower id keeps it).
     """
 
-    def __init__(self, index: ModelIndex) -> None:
+    def __init__(self, index: ModelIndex, owned: np.ndarray | None = None) -> None:
         self._geom_robot, self._geom_fid = index.geom_robot, index.geom_fiducial
         self._robot_ids, self._fid_ids = index.robot_ids, index.fiducial_ids
+        self._owned = None if owned is None else np.asarray(owned, dtype=bool)
         self._rows: list[tuple] = []
 
     def add(self, d: mujoco.MjData, t: float) -> None:
@@ -92,6 +97,11 @@ class ContactRecorder:
         rr = (ra >= 0) & (rb >= 0) & (ra != rb)
         rf = ((ra >= 0) & (fb >= 0)) | ((rb >= 0) & (fa >= 0))
         keep = rr | rf
+        if self._owned is not None:
+            ids = self._robot_ids
+            first = np.where(rr & (ids[np.maximum(rb, 0)] < ids[np.maximum(ra, 0)]), rb,
+                             np.where(ra >= 0, ra, rb))
+            keep &= self._owned[np.maximum(first, 0)]
         if not keep.any():
             return
         robot_ids, fid_ids = self._robot_ids, self._fid_ids

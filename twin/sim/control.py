@@ -26,7 +26,11 @@ from rfp_twin.twin.sim.faults import fault_effects
 
 
 def feedforward_gains(twin: TwinModel) -> np.ndarray:
-    """(n, 2) velocity feed-forward gain ``kv / kp`` of each servo, s (0 where kp = 0)."""
+    """(n, 2) velocity feed-forward gain ``kv / kp`` of each servo, s (0 where kp = 0).
+    A tiled twin (:class:`rfp_twin.models.mjcf.tiled_twin.TiledTwin`): each robot's from the
+    tile that owns it."""
+    if hasattr(twin, "tiles"):
+        return twin.gather([feedforward_gains(t.twin) for t in twin.tiles])
     m = twin.model
     act = twin.index.actuator
     kp = m.actuator_gainprm[act, 0]

@@ -181,5 +181,11 @@ class Simulator:
 
 def simulate(twin: TwinModel, trajectory: Trajectory, faults=(), settings: SimSettings | None = None,
              callback: Callback | None = None, record: bool = True) -> SimReport:
-    """Simulate ``trajectory`` on ``twin`` (see :class:`Simulator`)."""
+    """Simulate ``trajectory`` on ``twin`` (see :class:`Simulator`); a tiled twin
+    (:class:`rfp_twin.models.mjcf.tiled_twin.TiledTwin`) runs in its tiles
+    (:class:`rfp_twin.twin.sim.tiled.TiledSimulator`, callback ``(t, None, None)``)."""
+    if hasattr(twin, "tiles"):
+        from rfp_twin.twin.sim.tiled import TiledSimulator
+
+        return TiledSimulator(twin, trajectory, faults, settings).run(callback, record)
     return Simulator(twin, trajectory, faults, settings).run(callback, record)

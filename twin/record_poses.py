@@ -1,0 +1,108 @@
+"""The poses a recording logs, from the twin's MuJoCo kinematics: one model, or a tiled
+twin's tiles (each robot from the tile that owns it, each obstacle once).
+
+Shapes: T samples, n robots (layout order), k traced fibers, k3 fibers of the geometry.
+Quaternions (w, x, y, z); positions mm, world frame unless said.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from rfp_twin.models.mjcf import TwinModel
+
+
+@dataclass
+class LinkPoses:
+    """Robot link poses over the samples and the robots' static frames.
+
+    base_pos (n, 3), base_quat (n, 4) : each robot frame in the world
+    rel_alpha, rel_beta (T, n, 4) : alpha in the robot frame, beta in alpha's
+    t_alpha, t_beta (n, 3) : constant offsets of alpha / beta from their parent frames
+    tips (T, n, k, 3) : traced fiber tips (NaN where a robot does not carry the fiber)
+    fiber_local (n, k3, 3) : every fiber in the beta frame (NaN where not carried); has_fiber (n, k3) bool
+    """
+
+    base_pos: np.ndarray
+    base_quat: np.ndarray
+    rel_alpha: np.ndarray
+    rel_beta: np.ndarray
+    t_alpha: np.ndarray
+    t_beta: np.ndarray
+    tips: np.ndarray
+    fiber_local: np.ndarray
+    has_fiber: np.ndarray
+
+
+def quat_conj(q: np.ndarray) -> np.ndarray:
+    """Conjugate of (..., 4) quaternions (w, x, y, z)."""
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of (..., 4) quaternions (w, x, y, z), broadcast."""
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz,
+                     aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw], axis=-1)
+
+
+def model_poses(twin: TwinModel, angles: np.ndarray, trace_cols: list[int]) -> LinkPoses:
+    """:class:`LinkPoses` of one MuJoCo model at ``angles`` (T, n, 2) deg."""
+    m, idx = twin.model, twin.index
+    d = mujoco.MjData(m)
+    T, n = angles.shape[:2]
+    q_alpha = np.empty((T, n, 4))
+    q_beta = np.empty((T, n, 4))
+    tips = np.empty((T, n, len(trace_cols), 3))
+    qadr = idx.qpos_adr.ravel()
+    sites = idx.fiber_site[:, trace_cols]
+    for k in range(T):
+        d.qpos[qadr] = np.radians(angles[k]).ravel()
+        mujoco.mj_kinematics(m, d)
+        q_alpha[k] = d.xquat[idx.alpha_body]
+        q_beta[k] = d.xquat[idx.beta_body]
+        tips[k] = d.site_xpos[sites]
+    tips[:, ~(sites >= 0)] = np.nan
+    q_base = d.xquat[idx.base_body].copy()
+    fiber_local = np.asarray(m.site_pos)[idx.fiber_site].copy()
+    fiber_local[idx.fiber_site < 0] = np.nan
+    return LinkPoses(
+        base_pos=d.xpos[idx.base_body].copy(), base_quat=q_base,
+        rel_alpha=quat_mul(quat_conj(q_base)[None], q_alpha),
+        rel_beta=quat_mul(quat_conj(q_alpha), q_beta),
+        t_alpha=np.asarray(m.body_pos)[idx.alpha_body].copy(),
+        t_beta=np.asarray(m.body_pos)[idx.beta_body].copy(), tips=tips,
+        fiber_local=fiber_local, has_fiber=idx.fiber_site >= 0)
+
+
+def link_poses(twin, angles: np.ndarray, trace_cols: list[int]) -> LinkPoses:
+    """:class:`LinkPoses` of a :class:`TwinModel` or a tiled twin at ``angles``
+    (T, n, 2) deg (tiles: each robot's rows from the tile that owns it)."""
+    if not hasattr(twin, "tiles"):
+        return model_poses(twin, angles, trace_cols)
+    parts = [model_poses(t.twin, angles[:, t.robots], trace_cols) for t in twin.tiles]
+    out = {}
+    for name in LinkPoses.__dataclass_fields__:
+        time_major = name in ("rel_alpha", "rel_beta", "tips")
+        per_tile = [np.moveaxis(getattr(p, name), 0, 1) if time_major else getattr(p, name)
+                    for p in parts]
+        whole = twin.gather(per_tile)
+        out[name] = np.moveaxis(whole, 1, 0) if time_major else whole
+    return LinkPoses(**out)
+
+
+def model_parts(twin):
+    """(model, data at rest, index) of each MuJoCo model of the twin (one, or one per tile),
+    for the static parts (obstacles, plate)."""
+    models = [twin] if not hasattr(twin, "tiles") else [t.twin for t in twin.tiles]
+    out = []
+    for tw in models:
+        d = mujoco.MjData(tw.model)
+        mujoco.mj_kinematics(tw.model, d)
+        out.append((tw.model, d, tw.index))
+    return out

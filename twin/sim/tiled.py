@@ -1,0 +1,219 @@
+"""Simulating a tiled twin (:class:`rfp_twin.models.mjcf.tiled_twin.TiledTwin`): every tile
+steps its own MuJoCo model, in lock step, its halo robots moved with their owners.
+
+One physics step of the whole array:
+
+1. every tile takes the whole-array state of the step's start (joint angles and speeds,
+   ``qpos`` / ``qvel`` of each robot from the tile that owns it) for its halo robots, and
+   the servo targets of all its robots;
+2. every tile steps (the tiles are shared among ``threads`` threads: MuJoCo releases the
+   GIL while it steps);
+3. every tile writes its owned robots' new state into the next whole-array state.
+
+So a halo robot starts every step exactly where its owner has it, and each contact between
+an owned robot and a halo robot acts on the owned robot in its tile as it would in one
+model; the halo robot gets the matching push in its own tile, where the first is halo.
+Without contacts every robot's motion is that of the one-model simulation.
+A contact across two tiles is seen by both and kept once (by the tile owning the lower
+robot id: :class:`rfp_twin.twin.sim.contacts.ContactRecorder`).
+
+The report is the same :class:`rfp_twin.twin.sim.report.SimReport` as for one model.
+Units: angles in degrees, times in seconds, lengths in mm; n robots in layout order.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import mujoco
+import numpy as np
+
+from rfp_twin.models.mjcf import collect_mujoco_warnings
+from rfp_twin.models.mjcf.tiled_twin import Tile, TiledTwin
+from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.sim.contacts import ContactLog, ContactRecorder
+from rfp_twin.twin.sim.control import Commands, TrackingError, fiber_error_mm
+from rfp_twin.twin.sim.report import SimRecord, SimReport
+
+
+def _flat(robots: np.ndarray) -> np.ndarray:
+    """Flat (alpha, beta) indices ``2 r, 2 r + 1`` of robot indices (r,) -> (2r,)."""
+    return (2 * np.asarray(robots, dtype=np.int64)[:, None] + np.arange(2)).ravel()
+
+
+class _TileState:
+    """A tile's MjData and the index maps between it and the whole-array arrays."""
+
+    def __init__(self, tile: Tile) -> None:
+        self.tile = tile
+        tw = tile.twin
+        self.model = tw.model
+        self.data = mujoco.MjData(tw.model)
+        idx = tw.index
+        own, halo = tile.owned, ~tile.owned
+        self.own_q = idx.qpos_adr[own].ravel()
+        self.own_v = idx.dof_adr[own].ravel()
+        self.own_g = _flat(tile.robots[own])
+        self.halo_q = idx.qpos_adr[halo].ravel()
+        self.halo_v = idx.dof_adr[halo].ravel()
+        self.halo_g = _flat(tile.robots[halo])
+        self.act = idx.actuator.ravel()
+        self.act_g = _flat(tile.robots)
+        self.contacts = ContactRecorder(idx, owned=tile.owned)
+
+    def step(self, q_now: np.ndarray, v_now: np.ndarray, ctrl: np.ndarray, q_next: np.ndarray,
+             v_next: np.ndarray, t_now: float) -> None:
+        """One physics step from the whole-array state (q_now, v_now) (2n,) rad, rad/s
+        with servo targets ctrl (2n,) rad; writes the owned robots into (q_next, v_next)."""
+        d = self.data
+        d.qpos[self.halo_q] = q_now[self.halo_g]
+        d.qvel[self.halo_v] = v_now[self.halo_g]
+        d.ctrl[self.act] = ctrl[self.act_g]
+        mujoco.mj_step(self.model, d)
+        if d.ncon:
+            self.contacts.add(d, t_now)
+        q_next[self.own_g] = d.qpos[self.own_q]
+        v_next[self.own_g] = d.qvel[self.own_v]
+
+
+def _balanced_groups(sizes: list[int], k: int) -> list[list[int]]:
+    """Split items of ``sizes`` into ``k`` groups of near-equal total (largest first)."""
+    groups: list[list[int]] = [[] for _ in range(k)]
+    load = [0] * k
+    for i in sorted(range(len(sizes)), key=lambda i: -sizes[i]):
+        g = load.index(min(load))
+        groups[g].append(i)
+        load[g] += sizes[i]
+    return [g for g in groups if g]
+
+
+class TiledSimulator:
+    """Runs one trajectory on a :class:`TiledTwin` (see the module docstring); the same
+    parameters and result as :class:`rfp_twin.twin.sim.simulator.Simulator`, plus
+    ``threads`` (default: the CPUs this process may use). The callback is called as
+    ``callback(t, None, None)`` (there is no single model to hand over)."""
+
+    def __init__(self, twin: TiledTwin, trajectory: Trajectory, faults=(), settings=None,
+                 threads: int | None = None) -> None:
+        from rfp_twin.twin.sim.simulator import SimSettings
+
+        self.twin = twin
+        self.trajectory = trajectory
+        self.settings = settings or SimSettings()
+        self.faults = list(faults)
+        self.commands = Commands(twin, trajectory, self.faults, self.settings.feedforward)
+        self.tiles = [_TileState(t) for t in twin.tiles]
+        self.dt = float(self.tiles[0].model.opt.timestep)
+        sim_s = self.settings.duration_s if self.settings.duration_s is not None \
+            else trajectory.duration + self.settings.settle_s
+        self.n_steps = max(1, int(math.ceil(sim_s / self.dt - 1e-9)))
+        self.sim_s = self.n_steps * self.dt
+        cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+        self.threads = max(1, min(int(threads or cpus or 1), len(self.tiles)))
+        self._groups = _balanced_groups([t.tile.robots.size for t in self.tiles], self.threads)
+
+    def nominal(self, times: np.ndarray) -> np.ndarray:
+        """(len(times), n, 2) nominal angles, deg."""
+        return self.commands.nominal(times)
+
+    def reset(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every robot at its commanded start, at rest: returns the whole-array (q, v)
+        (2n,) rad, rad/s."""
+        start = self.commands.commanded(np.zeros(1))[0]
+        for ts in self.tiles:
+            ts.tile.twin.set_angles(ts.data, start[ts.tile.robots], hold=True)
+            ts.data.time = 0.0
+        q = np.radians(start).ravel()
+        return q, np.zeros_like(q)
+
+    def run(self, callback=None, record: bool = True) -> SimReport:
+        """Simulate; returns the report (with the sampled record if ``record``)."""
+        n = self.twin.n_robots
+        s = self.settings
+        q, v = self.reset()
+        q_next, v_next = q.copy(), v.copy()
+        rec_every = max(1, int(round(s.record_dt_s / self.dt))) if s.record_dt_s > 0 else 0
+        chunk = max(1, int(round(s.chunk_s / self.dt)))
+        rec_t, rec_q, rec_ref = [], [], []
+        tracking = TrackingError(n)
+        tiles, groups = self.tiles, self._groups
+        pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+        wall0 = time.perf_counter()
+        try:
+            with collect_mujoco_warnings() as messages:
+                step = 0
+                while step < self.n_steps:
+                    k1 = min(self.n_steps, step + chunk)
+                    t_grid = np.arange(step, k1 + 2) * self.dt
+                    ctrl = self.commands.servo_targets(t_grid, self.dt)
+                    nominal = self.nominal(t_grid[:-2])
+                    for j in range(k1 - step):
+                        t_now = (step + j) * self.dt
+                        angles = np.degrees(q).reshape(n, 2)
+                        tracking.add(angles, nominal[j])
+                        if rec_every and (step + j) % rec_every == 0:
+                            rec_t.append(t_now)
+                            rec_q.append(angles.copy())
+                            rec_ref.append(nominal[j].copy())
+                            if callback is not None:
+                                callback(float(t_now), None, None)
+                        c = ctrl[j]
+
+                        def run_group(g, q=q, v=v, c=c, qn=q_next, vn=v_next, t=t_now):
+                            for i in g:
+                                tiles[i].step(q, v, c, qn, vn, t)
+
+                        if pool is None:
+                            run_group(groups[0])
+                        else:
+                            list(pool.map(run_group, groups))
+                        q, q_next = q_next, q
+                        v, v_next = v_next, v
+                    step = k1
+        finally:
+            if pool is not None:
+                pool.shutdown()
+        wall = time.perf_counter() - wall0
+        t_end = self.n_steps * self.dt
+        q_end = np.degrees(q).reshape(n, 2)
+        ref_end = self.nominal(np.array([t_end]))[0]
+        final = q_end - ref_end
+        record_obj = None
+        if record and rec_t:
+            angles = np.array(rec_q)
+            record_obj = SimRecord(np.array(rec_t), angles,
+                                   angles + self.commands.effects.offset[None], np.array(rec_ref))
+        return SimReport(
+            robot_ids=self.twin.robot_ids.copy(), sim_s=float(t_end),
+            trajectory_s=self.trajectory.duration, timestep_s=self.dt, n_steps=self.n_steps,
+            wall_s=wall, max_error_deg=tracking.max_deg, rms_error_deg=tracking.rms_deg(self.n_steps),
+            final_error_deg=final, final_fiber_error_mm=fiber_error_mm(self.twin, q_end, ref_end),
+            reached=np.all(np.abs(final) <= s.reached_tol_deg, axis=1),
+            contacts=_merged_log([t.contacts.log() for t in tiles]),
+            faults=[f.describe() for f in self.faults], warnings=_summed_warnings(tiles),
+            warning_messages=list(messages), record=record_obj)
+
+
+def _merged_log(logs: list[ContactLog]) -> ContactLog:
+    """One log of every tile's rows, in time order (stable: tile order within a step)."""
+    logs = [lg for lg in logs if len(lg)]
+    if not logs:
+        return ContactLog.empty()
+    cat = ContactLog(*(np.concatenate([getattr(lg, f) for lg in logs]) for f in
+                       ("time_s", "robot_a", "robot_b", "fiducial", "depth_mm", "pos_mm")))
+    order = np.argsort(cat.time_s, kind="stable")
+    return ContactLog(cat.time_s[order], cat.robot_a[order], cat.robot_b[order],
+                      cat.fiducial[order], cat.depth_mm[order], cat.pos_mm[order])
+
+
+def _summed_warnings(tiles: list[_TileState]) -> dict[str, int]:
+    """MuJoCo warning counts summed over the tiles."""
+    from rfp_twin.twin.sim.simulator import mujoco_warnings
+
+    out: dict[str, int] = {}
+    for ts in tiles:
+        for k, c in mujoco_warnings(ts.data).items():
+            out[k] = out.get(k, 0) + c
+    return out
