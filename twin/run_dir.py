@@ -24,6 +24,7 @@ place only when complete, so an interrupted or failed run leaves no half-written
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import os
 import shutil
@@ -159,8 +160,14 @@ def load_run(run: str | Path, to_fold: bool = False) -> tuple[RobotSpec, Layout,
 
     The trajectory is the unfold (``trajectories.json``) or, with ``to_fold``, the fold
     (``trajectories_to_fold.json``).
+
+    ``robot.toml`` holds the spec's own tables only; its other tables (the 3D
+    ``[geometry]``, ``[actuators]``) are those of the preset or file the run was planned
+    with, which ``summary.json`` names: when that still exists, the spec's ``source`` is set
+    to it, so that :func:`rfp_twin.models.geometry.geometry_for_spec` (the MuJoCo twin, the
+    3D validation) builds the run's own robot, not the default one.
     """
-    from rfp_twin.models.robot import load_spec
+    from rfp_twin.models.robot import load_spec, source_origin
 
     run = Path(run)
     if not run.is_dir():
@@ -175,6 +182,9 @@ def load_run(run: str | Path, to_fold: bool = False) -> tuple[RobotSpec, Layout,
     traj = Trajectory.from_json(run / traj_file)
     check_run_trajectory(traj, spec, layout, run / traj_file)
     summary = json.loads((run / SUMMARY).read_text()) if (run / SUMMARY).is_file() else {}
+    planned_with = str(summary.get("spec", ""))
+    if source_origin(planned_with) is not None:
+        spec = dataclasses.replace(spec, source=planned_with)
     return spec, layout, traj, summary
 
 

@@ -41,16 +41,14 @@ VALIDATION_JSON = "validation.json"
 def _geometry_for_run(geometry: Optional[str], spec, summary: dict):
     """The meshes for a run and where they came from: ``--geometry`` (preset name or
     TOML file with a ``[geometry]`` table), else the preset / file the run was planned
-    with, else the defaults of its spec."""
+    with (``load_run`` sets it as the spec's source), else the defaults of its spec."""
     from rfp_twin.models.geometry import geometry_for_spec, load_geometry
-    from rfp_twin.models.robot import source_origin
+    from rfp_twin.models.robot import spec_origin
 
     if geometry is not None:
         return load_geometry(geometry, spec), str(geometry)
-    src = str(summary.get("spec", ""))
-    origin = source_origin(src)
-    if origin is not None:
-        return load_geometry(origin, spec), src
+    if spec_origin(spec) is not None and spec.source == str(summary.get("spec", "")):
+        return geometry_for_spec(spec), spec.source
     return geometry_for_spec(spec), f"defaults for {spec.source}"
 
 

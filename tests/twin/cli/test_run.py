@@ -63,3 +63,25 @@ def test_render_and_record_commands(tmp_path):
     assert (tmp_path / "run.rrd").stat().st_size > 10_000
     r = run("render", str(out), "--camera", "sideways", "--out", str(tmp_path / "x.mp4"))
     assert r.returncode == 2 and "camera" in r.stderr and not (tmp_path / "x.mp4").exists()
+
+
+def test_a_raft_run_is_simulated_with_its_own_robot_in_one_model_and_in_tiles(tmp_path):
+    """robot.toml has no [geometry]: the twin must take the raft preset's 3D robot, not the
+    default one (whose fatter beta bars touched in this run: 273 contact pairs before)."""
+    from rfp_twin.models.geometry import geometry_for_spec, load_geometry
+    from rfp_twin.twin.run_dir import load_run
+
+    out = tmp_path / "run"
+    r = run("plan", "--preset", "raft-6p2", "--layout", "raft:8", "--buffer", "0.8", "--seed", "1",
+            "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    spec, _, _, _ = load_run(out)
+    bar = geometry_for_spec(spec).links["beta"].collision[0].extents
+    assert bar == pytest.approx(load_geometry("raft-6p2").links["beta"].collision[0].extents)
+    for extra in ([], ["--tile-robots", "128"]):
+        r = run("simulate", str(out), *extra)
+        assert r.returncode == 0, r.stdout + r.stderr
+        sim = json.loads((out / "sim.json").read_text())
+        assert sim["contact_pairs"] == [] and sim["not_reached"] == []
+    r = run("simulate", str(out), "--tile-robots", "-1")
+    assert r.returncode == 2 and "--tile-robots -1; allowed" in r.stderr
