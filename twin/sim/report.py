@@ -149,7 +149,7 @@ class SimReport:
         t.add_column("value")
         t.add_row("robots", str(d["robots"]))
         t.add_row("simulated / wall", f"{self.sim_s:.2f} s / {self.wall_s:.2f} s "
-                                      f"({self.realtime_factor:.1f}x real time)")
+                                      f"({self.realtime_factor:.2g}x real time)")
         t.add_row("steps", f"{self.n_steps} x {self.timestep_s * 1e3:g} ms")
         pairs = [p for p in d["contact_pairs"] if "robot_b" in p]
         t.add_row("robot-robot contacts", f"{len(pairs)} pairs, max depth {d['max_depth_mm']:.3f} mm"
