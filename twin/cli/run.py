@@ -136,6 +136,7 @@ def render(
     speedup: float = typer.Option(1.0, help="Simulated seconds per video second."),
     fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
     full_quality: bool = typer.Option(False, help="Shadows, reflections, MSAA (slow on a CPU)."),
+    tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
 ) -> None:
     """Simulate a run and render it offscreen to MP4 (robots coloured by state)."""
     from rfp_twin.twin.render import RenderSettings, render_run  # first: picks MUJOCO_GL before mujoco
@@ -146,7 +147,7 @@ def render(
     settings = RenderSettings(width=width, height=height, fps=fps, speedup=speedup,
                               camera=camera or ("closeup" if robot is not None else "top"),
                               robot_id=robot, lean=not full_quality)
-    twin = build_with_progress(spec, lay)
+    twin = build_with_progress(spec, lay, tile_robots=tile_robots)
     sim_report = simulate_with_progress(twin, traj, record=True)
     with progress_bar("rendering", "{task.completed}/{task.total} frames") as progress:
         task = progress.add_task("", total=None)

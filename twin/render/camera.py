@@ -25,6 +25,8 @@ import mujoco
 import numpy as np
 
 from rfp_twin.models.mjcf import TwinModel, build_model
+from rfp_twin.models.mjcf.bodies import add_default_classes
+from rfp_twin.models.mjcf.cameras import add_scene
 from rfp_twin.twin.render.settings import RenderSettings
 
 #: Lean wide-camera renders re-mesh round parts so that their outline departs from a
@@ -41,27 +43,42 @@ def fitted_camera(twin: TwinModel, camera: str, aspect: float,
     """Where a world camera of ``twin.model`` must stand so that the grid fits a frame of
     ``aspect`` = width / height: same orientation and field of view, moved along its view
     axis and sideways so that every base plus the arm reach in 16 directions, at the plate
-    and at the focal surface, lands inside the frame less ``margin``, centred.
+    and at the focal surface, lands inside the frame less ``margin``, centred
+    (:func:`fit_camera_pose` with the twin's spec, layout, geometry and base height).
 
     Returns
     -------
     (pos (3,), distance): the camera position (world, mm) and its distance from the aim
     point (the grid's centre), mm.
     """
-    m = twin.model
     c = twin.index.camera[camera]
-    spec, p = twin.spec, twin.geometry.params
+    m = twin.model
+    return fit_camera_pose(np.asarray(m.cam_quat[c], float), float(m.cam_fovy[c]), twin.spec,
+                           twin.layout, twin.geometry.params, twin.base_z_mm, aspect, margin)
+
+
+def fit_camera_pose(cam_quat: np.ndarray, fovy_deg: float, spec, layout, params,
+                    base_z_mm: float, aspect: float,
+                    margin: float = FIT_MARGIN) -> tuple[np.ndarray, float]:
+    """:func:`fitted_camera` without a compiled model: a camera of orientation ``cam_quat``
+    (4,) (w, x, y, z) and vertical field of view ``fovy_deg`` deg, framing the robots of
+    ``layout`` (RobotSpec ``spec``, GeometryParams ``params``, nominal robot frames at
+    world height ``base_z_mm`` mm) in a frame of ``aspect`` = width / height.
+
+    Returns (pos (3,) world mm, distance from the aim point mm).
+    """
+    p = params
     reach = spec.alpha_length_mm + spec.beta_length_mm + p.beta_half_width_mm
     ang = np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False)
     ring = reach * np.column_stack([np.cos(ang), np.sin(ang)])
-    xy = (np.asarray(twin.layout.xy, float)[:, None, :] + ring[None]).reshape(-1, 2)
-    z_lo, z_hi = twin.base_z_mm - p.body_length_mm, p.focal_z_mm
+    xy = (np.asarray(layout.xy, float)[:, None, :] + ring[None]).reshape(-1, 2)
+    z_lo, z_hi = base_z_mm - p.body_length_mm, p.focal_z_mm
     pts = np.vstack([np.column_stack([xy, np.full(len(xy), z)]) for z in (z_lo, z_hi)])
     target = (pts.min(axis=0) + pts.max(axis=0)) / 2.0
     mat = np.zeros(9)
-    mujoco.mju_quat2Mat(mat, np.asarray(m.cam_quat[c], float))
+    mujoco.mju_quat2Mat(mat, np.asarray(cam_quat, float))
     axes = mat.reshape(3, 3)  # columns: camera x (right), y (up), z (backwards)
-    ty = math.tan(math.radians(float(m.cam_fovy[c])) / 2.0) * (1.0 - margin)
+    ty = math.tan(math.radians(float(fovy_deg)) / 2.0) * (1.0 - margin)
     tx = ty * aspect
 
     def distance(aim):
@@ -81,6 +98,30 @@ def fitted_camera(twin: TwinModel, camera: str, aspect: float,
     return target + dist * axes[:, 2], dist
 
 
+def wide_camera_setup(spec, layout, params,
+                      settings: RenderSettings) -> tuple[np.ndarray, float, float, float]:
+    """The ``settings.camera`` of a render without a compiled grid model (RobotSpec
+    ``spec``, Layout ``layout``, GeometryParams ``params``): (position (3,) world mm,
+    distance to the grid mm, vertical field of view deg, robot pitch in the frame px), the
+    camera as the grid model has it (:func:`rfp_twin.models.mjcf.cameras.add_scene`), moved
+    by :func:`fit_camera_pose` when ``settings.fit``."""
+    base_z = params.focal_z_mm - params.fiber_z_mm
+    probe = mujoco.MjSpec()
+    vis, _ = add_default_classes(probe)
+    add_scene(probe, spec, layout, params, base_z, None, vis)
+    cam = next(c for c in probe.cameras if c.name == settings.camera)
+    fovy = float(cam.fovy)
+    if settings.fit:
+        pos, distance = fit_camera_pose(np.asarray(cam.quat, float), fovy, spec, layout, params,
+                                        base_z, settings.width / settings.height)
+    else:
+        pos = np.asarray(cam.pos, float)
+        centre = np.append(np.asarray(layout.xy, float).mean(axis=0), base_z)
+        distance = float(np.linalg.norm(pos - centre))
+    f = 0.5 * settings.height / math.tan(math.radians(fovy) / 2.0)
+    return pos, distance, fovy, f * spec.pitch_mm / max(distance, 1e-9)
+
+
 def focal_px(model: mujoco.MjModel, camera_id: int, height_px: int) -> float:
     """Focal length in pixels of a camera with the model's vertical field of view, for a
     frame ``height_px`` pixels high."""
@@ -92,9 +133,18 @@ def lean_circle_sections(twin: TwinModel, settings: RenderSettings, distance_mm:
     :data:`LEAN_MIN_SECTIONS`, at most the model's) for which the outline of the widest
     round part (fixed body or alpha hub) seen from ``distance_mm`` departs from a circle
     by at most :data:`LEAN_SAGITTA_PX` pixels (shading stays smooth: MuJoCo smooths the
-    normals)."""
-    p = twin.geometry.params
-    f = focal_px(twin.model, twin.index.camera[settings.camera], settings.height)
+    normals). :func:`lean_sections_for` without a compiled model."""
+    c = twin.index.camera[settings.camera]
+    return lean_sections_for(twin.geometry.params, float(twin.model.cam_fovy[c]),
+                             settings.height, distance_mm)
+
+
+def lean_sections_for(params, fovy_deg: float, height_px: int, distance_mm: float) -> int:
+    """:func:`lean_circle_sections` of GeometryParams ``params`` seen by a camera of
+    vertical field of view ``fovy_deg`` deg in a frame ``height_px`` high from
+    ``distance_mm`` mm."""
+    p = params
+    f = 0.5 * height_px / math.tan(math.radians(float(fovy_deg)) / 2.0)
     radius_px = max(p.body_radius_mm, p.alpha_hub_radius_mm) * f / max(distance_mm, 1e-9)
     if radius_px <= LEAN_SAGITTA_PX:
         n = LEAN_MIN_SECTIONS

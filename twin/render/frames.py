@@ -23,6 +23,7 @@ import mujoco
 import numpy as np
 
 from rfp_twin.models.mjcf import TwinModel
+from rfp_twin.models.mjcf.options import RGBA
 from rfp_twin.twin.render.backend import GL_BACKENDS, RenderError, gl_context_class, require_backend
 from rfp_twin.twin.render.camera import focal_px, render_model
 from rfp_twin.twin.render.settings import RenderSettings
@@ -75,6 +76,55 @@ def state_palette(model: mujoco.MjModel, index) -> tuple[np.ndarray, np.ndarray,
     return geoms, geom_robot, pal
 
 
+def state_colours(link: str) -> np.ndarray:
+    """(4 states, 4) float32 RGBA of a moving link (``alpha`` or ``beta``) in each state:
+    :data:`STATE_RGBA` (alpha in :data:`ALPHA_SHADE`), waiting the link's own colour."""
+    shade = ALPHA_SHADE if link == "alpha" else 1.0
+    out = np.empty((len(STATE_NAMES), 4), dtype=np.float32)
+    for state, rgba in STATE_RGBA.items():
+        if rgba is None:
+            out[state] = RGBA[link]
+        else:
+            out[state, :3] = np.asarray(rgba[:3]) * shade
+            out[state, 3] = rgba[3]
+    return out
+
+
+def open_offscreen(backend: str, model: mujoco.MjModel, width: int, height: int):
+    """(GL context, MjrContext) drawing ``model`` into a ``width`` x ``height`` offscreen
+    buffer; RenderError (naming the backend) when that fails."""
+    gl = None
+    try:
+        gl = gl_context_class(backend)(width, height)
+        gl.make_current()
+        con = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, con)
+    except Exception as exc:  # noqa: BLE001 - any GL failure is a render error
+        if gl is not None:
+            gl.free()
+        raise RenderError(f"MUJOCO_GL={backend!r}: cannot create a {width}x{height} offscreen "
+                          f"context ({type(exc).__name__}: {exc}); allowed: "
+                          f"{', '.join(GL_BACKENDS)} with Mesa installed") from None
+    return gl, con
+
+
+def project_points(model: mujoco.MjModel, data: mujoco.MjData, camera_id: int, width: int,
+                   height: int, xyz: np.ndarray) -> np.ndarray:
+    """Pixel coordinates (k, 2) as (column, row) of world points (k, 3) mm seen by camera
+    ``camera_id`` (after ``mj_camlight``) in a ``width`` x ``height`` frame (rows from the
+    top); points behind the camera give NaN."""
+    rel = np.asarray(xyz, float).reshape(-1, 3) - data.cam_xpos[camera_id]
+    cam = rel @ data.cam_xmat[camera_id].reshape(3, 3)  # camera axes: x right, y up, -z forward
+    f = focal_px(model, camera_id, height)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        depth = -cam[:, 2]
+        col = width / 2.0 + f * cam[:, 0] / depth
+        row = height / 2.0 - f * cam[:, 1] / depth
+    out = np.column_stack([col, row])
+    out[depth <= 0] = np.nan
+    return out
+
+
 #: Scene slots beyond the model's geoms and sites (lights' and cameras' decor, labels).
 SCENE_SPARE = 64
 
@@ -93,7 +143,42 @@ def visible_geoms(model: mujoco.MjModel, option: mujoco.MjvOption) -> int:
     return int(np.count_nonzero(shown & (np.asarray(model.geom_rgba)[:, 3] > 0)))
 
 
-class FrameRenderer:
+class OffscreenOwner:
+    """Base of the renderers: owns a GL context ``_gl`` and an MjrContext ``_con`` (None
+    when not open); :meth:`close` frees them; a context manager."""
+
+    _gl = None
+    _con = None
+
+    def close(self) -> None:
+        """Free the GL resources (idempotent)."""
+        if self._con is not None:
+            try:
+                if self._gl is not None:
+                    self._gl.make_current()
+                self._con.free()
+            finally:
+                self._con = None
+        if self._gl is not None:
+            try:
+                self._gl.free()
+            finally:
+                self._gl = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001 - interpreter shutdown
+            pass
+
+
+class FrameRenderer(OffscreenOwner):
     """Draws frames of one grid with one camera into numpy arrays.
 
     Parameters
@@ -135,18 +220,8 @@ class FrameRenderer:
                 if hasattr(mujoco.mjtRndFlag, flag):
                     self.scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
         # GL
-        gl_cls = gl_context_class(self.backend)
         w, h = settings.width, settings.height
-        try:
-            self._gl = gl_cls(w, h)
-            self._gl.make_current()
-            self._con = mujoco.MjrContext(m, mujoco.mjtFontScale.mjFONTSCALE_100)
-            mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._con)
-        except Exception as exc:  # noqa: BLE001 - any GL failure is a render error
-            self.close()
-            raise RenderError(f"MUJOCO_GL={self.backend!r}: cannot create a {w}x{h} offscreen "
-                              f"context ({type(exc).__name__}: {exc}); allowed: "
-                              f"{', '.join(GL_BACKENDS)} with Mesa installed") from None
+        self._gl, self._con = open_offscreen(self.backend, m, w, h)
         self._rect = mujoco.MjrRect(0, 0, w, h)
         self._buf = np.empty((h, w, 3), dtype=np.uint8)
         self.set_angles(np.tile(np.asarray(twin.spec.fold_deg, float), (self.n_robots, 1)))
@@ -192,46 +267,8 @@ class FrameRenderer:
     def project(self, xyz: np.ndarray) -> np.ndarray:
         """Pixel coordinates (k, 2) as (column, row) of world points (k, 3) mm in the
         current camera (rows from the top); points behind the camera give NaN."""
-        d = self.data
-        c = self.camera.fixedcamid
-        rel = np.asarray(xyz, float).reshape(-1, 3) - d.cam_xpos[c]
-        cam = rel @ d.cam_xmat[c].reshape(3, 3)  # camera axes: x right, y up, -z forward
-        w, h = self.settings.width, self.settings.height
-        f = focal_px(self.model, c, h)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            depth = -cam[:, 2]
-            col = w / 2.0 + f * cam[:, 0] / depth
-            row = h / 2.0 - f * cam[:, 1] / depth
-        out = np.column_stack([col, row])
-        out[depth <= 0] = np.nan
-        return out
-
-    def close(self) -> None:
-        """Free the GL resources (idempotent)."""
-        if self._con is not None:
-            try:
-                if self._gl is not None:
-                    self._gl.make_current()
-                self._con.free()
-            finally:
-                self._con = None
-        if self._gl is not None:
-            try:
-                self._gl.free()
-            finally:
-                self._gl = None
-
-    def __enter__(self) -> FrameRenderer:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-    def __del__(self) -> None:
-        try:
-            self.close()
-        except Exception:  # noqa: BLE001 - interpreter shutdown
-            pass
+        return project_points(self.model, self.data, self.camera.fixedcamid,
+                              self.settings.width, self.settings.height, xyz)
 
 
 def render_frame(twin: TwinModel, angles_deg: np.ndarray | None = None,

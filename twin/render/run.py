@@ -16,6 +16,8 @@ from rfp_twin.models.mjcf import TwinModel
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.render.backend import RenderError, require_backend
 from rfp_twin.twin.render.frames import FrameRenderer
+from rfp_twin.twin.render.camera import wide_camera_setup
+from rfp_twin.twin.render.merged import MERGED_MIN_ROBOTS, MergedFrameRenderer, use_merged
 from rfp_twin.twin.render.report import RenderReport
 from rfp_twin.twin.render.settings import RenderSettings
 from rfp_twin.twin.render.timeline import frame_timeline
@@ -24,6 +26,28 @@ from rfp_twin.twin.sim import SimReport, SimSettings, simulate
 
 #: ``progress(frames_done, frames_total)``.
 Progress = Callable[[int, int], None]
+
+
+def make_renderer(twin: TwinModel, settings: RenderSettings):
+    """The renderer for ``twin`` with ``settings``: :class:`MergedFrameRenderer` when
+    :func:`rfp_twin.twin.render.merged.use_merged` says so (``settings.merged``, or auto:
+    a wide camera and a large array whose robots are a few pixels, drawn as top caps),
+    else :class:`FrameRenderer`. A tiled twin (no whole-array model) is drawn by
+    MergedFrameRenderer on the wide cameras and by the tile holding the robot for the
+    close-up (:class:`rfp_twin.twin.render.tile_closeup.TileCloseupRenderer`)."""
+    if hasattr(twin, "tiles"):
+        if settings.wide:
+            return MergedFrameRenderer(twin.spec, twin.layout, twin.geometry, settings)
+        from rfp_twin.twin.render.tile_closeup import TileCloseupRenderer
+
+        return TileCloseupRenderer(twin, settings)
+    pitch_px = None
+    if settings.wide and settings.merged is None and twin.n_robots > MERGED_MIN_ROBOTS:
+        pitch_px = wide_camera_setup(twin.spec, twin.layout, twin.geometry.params,
+                                     settings)[3]
+    if use_merged(settings, twin.n_robots, pitch_px):
+        return MergedFrameRenderer(twin.spec, twin.layout, twin.geometry, settings)
+    return FrameRenderer(twin, settings)
 
 
 def render_run(twin: TwinModel, trajectory: Trajectory | None, out_mp4: str | Path,
@@ -37,7 +61,7 @@ def render_run(twin: TwinModel, trajectory: Trajectory | None, out_mp4: str | Pa
     twin : TwinModel
     trajectory : what to simulate (ignored when ``sim_report`` is given).
     out_mp4 : path of the video (written atomically).
-    settings : RenderSettings
+    settings : RenderSettings (``settings.merged``: which renderer, :func:`make_renderer`)
     sim_report : a finished simulation with its record; default: simulate ``trajectory``
         with ``faults`` and ``sim_settings`` (:func:`rfp_twin.twin.sim.simulate`).
     progress : called as ``progress(frames_done, frames_total)`` after each frame.
@@ -58,7 +82,7 @@ def render_run(twin: TwinModel, trajectory: Trajectory | None, out_mp4: str | Pa
     timeline = frame_timeline(twin, sim_report, settings)
     t_total = time.perf_counter()
     t_render = 0.0
-    with FrameRenderer(twin, settings) as fr, \
+    with make_renderer(twin, settings) as fr, \
             Mp4Writer(out_mp4, settings.width, settings.height, settings.fps, settings.crf,
                       settings.preset) as writer:
         frame = np.empty((settings.height, settings.width, 3), dtype=np.uint8)

@@ -37,6 +37,14 @@ class RenderSettings:
         (:func:`rfp_twin.twin.render.camera.fitted_camera`; the model's cameras are framed for a
         square). False: the model's camera poses as they are.
     crf, preset : libx264 quality (0-51, lower is better) and speed preset.
+    merged : draw with :class:`rfp_twin.twin.render.merged.MergedFrameRenderer` (the whole
+        array in a handful of merged meshes, for large arrays) instead of
+        :class:`rfp_twin.twin.render.frames.FrameRenderer` (one draw call per part). None:
+        automatic, merged for a wide camera, more than
+        :data:`rfp_twin.twin.render.merged.MERGED_MIN_ROBOTS` robots and robots smaller
+        than :data:`rfp_twin.twin.render.merged.CAP_PITCH_PX` in the frame
+        (:func:`rfp_twin.twin.render.merged.use_merged`). The ``closeup`` camera always
+        uses FrameRenderer.
     """
 
     width: int = 1280
@@ -49,6 +57,7 @@ class RenderSettings:
     fit: bool = True
     crf: int = 23
     preset: str = "veryfast"
+    merged: bool | None = None
 
     def __post_init__(self) -> None:
         for name in ("width", "height"):
@@ -67,6 +76,8 @@ class RenderSettings:
                               "allowed: a robot id only with camera 'closeup'")
         if isinstance(self.crf, bool) or not isinstance(self.crf, int) or not 0 <= self.crf <= 51:
             raise RenderError(f"field 'crf' = {self.crf!r}; allowed: an integer in [0, 51]")
+        if self.merged is not None and not isinstance(self.merged, bool):
+            raise RenderError(f"field 'merged' = {self.merged!r}; allowed: True, False or None")
         if self.preset not in X264_PRESETS:
             raise RenderError(f"field 'preset' = {self.preset!r}; allowed: {', '.join(X264_PRESETS)}")
 
