@@ -26,7 +26,8 @@ class TwinModel:
     Attributes
     ----------
     model : mujoco.MjModel
-    mjspec : mujoco.MjSpec (the spec it was compiled from)
+    mjspec : mujoco.MjSpec (the spec it was compiled from; None for the tiles of a tiled
+        twin, which do not keep it)
     index : ModelIndex
     spec : RobotSpec; layout : Layout; geometry : RobotGeometry; options : ModelOptions
     base_z_mm : float, world z of the nominal robot frame (top face of the fixed bodies); a
@@ -34,7 +35,7 @@ class TwinModel:
     """
 
     model: mujoco.MjModel
-    mjspec: mujoco.MjSpec
+    mjspec: mujoco.MjSpec | None
     index: ModelIndex
     spec: RobotSpec
     layout: Layout

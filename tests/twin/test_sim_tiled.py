@@ -68,3 +68,15 @@ def test_a_stuck_robot_on_a_calibrated_wok_with_walls_matches_one_model():
     assert one.max_error_deg == pytest.approx(tiled.max_error_deg, abs=1e-9)
     assert pair_set(one) == pair_set(tiled)
     assert tiled.faults == one.faults and not tiled.reached[7]
+
+
+def test_short_command_chunks_change_nothing():
+    """Large arrays compute servo targets in shorter chunks (twin/sim/tiled.py CHUNK_VALUES):
+    the chunk length must not change the motion."""
+    lay = layout_by_name("raft:1", RAFT.pitch_mm)
+    traj = swings(lay, RAFT.fold_deg, np.full(lay.n_robots, 30.0), np.full(lay.n_robots, -20.0))
+    tiled = build_tiled(RAFT, lay, max_robots=20)
+    a = TiledSimulator(tiled, traj, settings=SimSettings(settle_s=0.1)).run()
+    b = TiledSimulator(tiled, traj, settings=SimSettings(settle_s=0.1, chunk_s=0.012)).run()
+    assert np.array_equal(a.record.angles, b.record.angles)
+    assert all(t.twin.mjspec is None for t in tiled.tiles)     # tiles keep no MjSpec

@@ -37,6 +37,10 @@ from rfp_twin.twin.sim.contacts import ContactLog, ContactRecorder
 from rfp_twin.twin.sim.control import Commands, TrackingError, fiber_error_mm
 from rfp_twin.twin.sim.report import SimRecord, SimReport
 
+#: Largest number of values in one chunk of servo targets or nominal angles (steps x 2n):
+#: a chunk of ``chunk_s`` is shortened on large arrays so that its arrays stay ~64 MB.
+CHUNK_VALUES = 8_000_000
+
 
 def _flat(robots: np.ndarray) -> np.ndarray:
     """Flat (alpha, beta) indices ``2 r, 2 r + 1`` of robot indices (r,) -> (2r,)."""
@@ -135,7 +139,7 @@ class TiledSimulator:
         q, v = self.reset()
         q_next, v_next = q.copy(), v.copy()
         rec_every = max(1, int(round(s.record_dt_s / self.dt))) if s.record_dt_s > 0 else 0
-        chunk = max(1, int(round(s.chunk_s / self.dt)))
+        chunk = max(1, min(int(round(s.chunk_s / self.dt)), CHUNK_VALUES // (2 * n)))
         rec_t, rec_q, rec_ref = [], [], []
         tracking = TrackingError(n)
         tiles, groups = self.tiles, self._groups
