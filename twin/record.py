@@ -46,7 +46,7 @@ from rfp_twin.models.errors import RfpError
 from rfp_twin.models.mjcf import RGBA, VISUAL_GROUP, TwinModel
 from rfp_twin.models.mjcf.tiled_twin import TiledTwin
 from rfp_twin.models.trajectory import Trajectory
-from rfp_twin.twin.record_poses import link_poses, model_parts
+from rfp_twin.twin.record_poses import iter_link_poses, model_parts
 from rfp_twin.twin.sim import SimReport, SimSettings, simulate
 
 #: Name of the time line.
@@ -224,14 +224,41 @@ def _log_run(rec: rr.RecordingStream, twin, report: SimReport,
     unknown = [f for f in trace if f not in fibers]
     if unknown:
         raise RecordError(f"field 'trace_fibers' = {unknown}; allowed: {', '.join(fibers)}")
-    poses = link_poses(twin, angles, [fibers.index(f) for f in trace])
-    carried = ~np.isnan(poses.tips[0, :, :, 0]) if len(times) else np.zeros((0, len(trace)), bool)
-
-    # static: robot frames, meshes, fibers in the beta frame
     meshes = geometry.link_meshes("visual")
     fiber_colors = [_rgba8(FIBER_RGBA.get(f, DEFAULT_FIBER_RGBA)) for f in fibers]
     mesh_arch = {name: _mesh3d(meshes[name], RGBA[name]) for name in ("body", "alpha", "beta")}
-    for k, rid in enumerate(robot_ids):
+    keep = _changed(angles, POSE_EPS_DEG)
+    strips: list[dict[int, np.ndarray]] = [{} for _ in trace]
+    # part by part (a tiled twin: tile by tile, so only one tile's poses are in memory)
+    for robots, poses in iter_link_poses(twin, angles, [fibers.index(f) for f in trace]):
+        _log_robots(rec, poses, robot_ids[robots], times, keep[:, robots], fibers,
+                    fiber_colors, mesh_arch)
+        for c in range(len(trace)):
+            for j, k in enumerate(robots):
+                if len(times) and not np.isnan(poses.tips[0, j, c, 0]):
+                    strips[c][int(k)] = _strip(poses.tips[:, j, c])
+    parts = model_parts(twin)
+    _log_obstacles(rec, parts, meshes)
+    _log_plate(rec, parts)
+
+    # fiber traces over the whole run (robots that carry that fiber)
+    for c, name in enumerate(trace):
+        own = sorted(strips[c])
+        rec.log(f"traces/{name}",
+                rr.LineStrips3D([strips[c][k] for k in own], radii=TRACE_RADIUS_MM,
+                                colors=[_rgba8(FIBER_RGBA.get(name, DEFAULT_FIBER_RGBA))] * len(own),
+                                labels=[f"r{int(robot_ids[k])}" for k in own]), static=True)
+
+    if settings.contacts:
+        _log_contacts(rec, report, np.asarray(record.times, float))
+
+
+def _log_robots(rec: rr.RecordingStream, poses, ids: np.ndarray, times: np.ndarray,
+                keep: np.ndarray, fibers: tuple, fiber_colors: list, mesh_arch: dict) -> None:
+    """Log robots ``ids`` (r,): their frames, link meshes and fibers (static) and their link
+    poses at the samples where they moved (``keep`` (T, r) bool); ``poses`` LinkPoses of
+    those robots."""
+    for k, rid in enumerate(ids):
         root = f"robots/{int(rid)}"
         rec.log(root, rr.Transform3D(translation=poses.base_pos[k],
                                      quaternion=_xyzw(poses.base_quat[k])), static=True)
@@ -242,34 +269,14 @@ def _log_run(rec: rr.RecordingStream, twin, report: SimReport,
                 rr.Points3D(poses.fiber_local[k, own], radii=FIBER_RADIUS_MM,
                             colors=[fiber_colors[c] for c in own],
                             labels=[fibers[c] for c in own]), static=True)
-    parts = model_parts(twin)
-    _log_obstacles(rec, parts, meshes)
-    _log_plate(rec, parts)
-
-    # poses over time: only samples where the robot moved
-    keep = _changed(angles, POSE_EPS_DEG)
-    for k, rid in enumerate(robot_ids):
         rows = np.flatnonzero(keep[:, k])
         tcol = [rr.TimeColumn(TIMELINE, duration=times[rows])]
-        root = f"robots/{int(rid)}"
         for path, t_rel, q_rel in (("alpha", poses.t_alpha, poses.rel_alpha),
                                    ("alpha/beta", poses.t_beta, poses.rel_beta)):
             rec.send_columns(f"{root}/{path}", indexes=tcol,
                              columns=rr.Transform3D.columns(
                                  translation=np.repeat(t_rel[k][None], rows.size, axis=0),
                                  quaternion=_xyzw(q_rel[rows, k])))
-
-    # fiber traces over the whole run (robots that carry that fiber)
-    for c, name in enumerate(trace):
-        own = np.flatnonzero(carried[:, c])
-        strips = [_strip(poses.tips[:, k, c]) for k in own]
-        rec.log(f"traces/{name}",
-                rr.LineStrips3D(strips, radii=TRACE_RADIUS_MM,
-                                colors=[_rgba8(FIBER_RGBA.get(name, DEFAULT_FIBER_RGBA))] * len(own),
-                                labels=[f"r{int(robot_ids[k])}" for k in own]), static=True)
-
-    if settings.contacts:
-        _log_contacts(rec, report, np.asarray(record.times, float))
 
 
 def _log_plate(rec: rr.RecordingStream, parts) -> None:

@@ -80,19 +80,38 @@ def model_poses(twin: TwinModel, angles: np.ndarray, trace_cols: list[int]) -> L
         fiber_local=fiber_local, has_fiber=idx.fiber_site >= 0)
 
 
-def link_poses(twin, angles: np.ndarray, trace_cols: list[int]) -> LinkPoses:
-    """:class:`LinkPoses` of a :class:`TwinModel` or a tiled twin at ``angles``
-    (T, n, 2) deg (tiles: each robot's rows from the tile that owns it)."""
+#: LinkPoses fields indexed by time first.
+TIME_MAJOR = ("rel_alpha", "rel_beta", "tips")
+
+
+def _rows(p: LinkPoses, rows: np.ndarray) -> LinkPoses:
+    """The robots ``rows`` of ``p``."""
+    return LinkPoses(**{f: (getattr(p, f)[:, rows] if f in TIME_MAJOR else getattr(p, f)[rows])
+                        for f in LinkPoses.__dataclass_fields__})
+
+
+def iter_link_poses(twin, angles: np.ndarray, trace_cols: list[int]):
+    """Yield ``(robots, LinkPoses)`` part by part at ``angles`` (T, n, 2) deg: all robots
+    of a :class:`TwinModel` at once, or each tile's own robots of a tiled twin (so that
+    only one tile's poses are held at a time). ``robots`` (r,) are layout robot indices."""
     if not hasattr(twin, "tiles"):
-        return model_poses(twin, angles, trace_cols)
-    parts = [model_poses(t.twin, angles[:, t.robots], trace_cols) for t in twin.tiles]
+        yield np.arange(twin.n_robots), model_poses(twin, angles, trace_cols)
+        return
+    for t in twin.tiles:
+        local = model_poses(t.twin, angles[:, t.robots], trace_cols)
+        yield t.robots[t.owned], _rows(local, np.flatnonzero(t.owned))
+
+
+def link_poses(twin, angles: np.ndarray, trace_cols: list[int]) -> LinkPoses:
+    """:class:`LinkPoses` of every robot of a :class:`TwinModel` or a tiled twin at
+    ``angles`` (T, n, 2) deg, in layout order."""
+    parts = list(iter_link_poses(twin, angles, trace_cols))
+    order = np.argsort(np.concatenate([r for r, _ in parts]))
     out = {}
-    for name in LinkPoses.__dataclass_fields__:
-        time_major = name in ("rel_alpha", "rel_beta", "tips")
-        per_tile = [np.moveaxis(getattr(p, name), 0, 1) if time_major else getattr(p, name)
-                    for p in parts]
-        whole = twin.gather(per_tile)
-        out[name] = np.moveaxis(whole, 1, 0) if time_major else whole
+    for f in LinkPoses.__dataclass_fields__:
+        axis = 1 if f in TIME_MAJOR else 0
+        out[f] = np.take(np.concatenate([getattr(p, f) for _, p in parts], axis=axis), order,
+                         axis=axis)
     return LinkPoses(**out)
 
 
