@@ -22,6 +22,7 @@ $(STAMP): pyproject.toml | sysdeps
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
+	$(BIN)/python -m compileall -q models planners validation twin
 	touch $(STAMP)
 
 demo: $(STAMP)

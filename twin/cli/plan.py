@@ -87,6 +87,7 @@ def plan(
     By default the stepwise plan is smoothed, time-parametrised under the spec's speed and
     acceleration limits (interacting robots share one path parameter), simplified to at most
     --max-points per axis and verified again at buffer - budget."""
+    t_import = time.perf_counter()
     from rfp_twin.models.robot import load_spec
     from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 
@@ -101,6 +102,7 @@ def plan(
                                     fiducial_ids=parse_ids(fiducials, "--fiducials"),
                                     options=options, offline=parse_offline(offline, spec.fold_deg))
     tg = rc.read_targets(targets) if targets is not None else None
+    t_setup = time.perf_counter()
     n, rounds = rc.geom.n_robots, options.max_rounds + 1
     with progress_bar("planning", "{task.completed}/{task.total}") as progress:
         task = progress.add_task(f"{n} robots, {algorithm}", total=rounds if options.stepwise else None)
@@ -115,8 +117,12 @@ def plan(
                                 description=f"{n} robots: {name}")
 
         outcome = rc.run(seed=seed, targets=tg, on_round=on_round, on_stage=on_stage)
+    t_run = time.perf_counter()
     summary = outcome.summary(layout=layout)
     summary["wall_time_s"] = time.perf_counter() - t_start
+    summary["stage_wall_s"] = {"imports": t_start - t_import, "setup": t_setup - t_start,
+                               **{k: outcome.seconds[k] for k in ("targets", "plan", "deliver")},
+                               "summary": time.perf_counter() - t_run}
     check = outcome.check
     if not check.ok:
         raise fail(f"the plan fails the 2D check: {len(check.collisions)} collision(s), min "

@@ -12,6 +12,7 @@ list          the shipped studies
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Optional
 
@@ -20,8 +21,9 @@ from rich.table import Table
 
 from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, EXIT_INTERRUPTED, console,
                                   err_console, fail, one_line_errors)
-from rfp_twin.twin.studies import (consolidate_results, default_out_dir, list_studies, load_study,
-                                   machine_workers, run_study)
+
+# rfp_twin.twin.studies (pyarrow, the trial runner) is imported inside the commands: the
+# root app mounts this sub-app, and `rfp-twin plan` must not pay for it.
 
 #: Trend checks printed one per line; more are summed up in one line.
 MAX_TRENDS_SHOWN = 8
@@ -30,6 +32,15 @@ study_app = typer.Typer(add_completion=False, no_args_is_help=True,
                         pretty_exceptions_enable=False,
                         help="Design studies: thousands of simulated reconfigurations on Dask, "
                              "stored as Parquet, reported as figures.")
+
+
+def _cores_here() -> int:
+    """The cores this process may use: the default LocalCluster's worker count (the
+    count of :func:`rfp_twin.twin.studies.cluster.machine_workers`, not imported here)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover (not Linux)
+        return max(1, os.cpu_count() or 1)
 
 
 @study_app.command("run")
@@ -42,7 +53,7 @@ def run(
                    "via dask-jobqueue: see twin/studies/cluster.py) (default: a LocalCluster "
                    "here)."),
     workers: Optional[int] = typer.Option(
-        None, help=f"LocalCluster worker processes (default: cores here = {machine_workers()})."),
+        None, help=f"LocalCluster worker processes (default: cores here = {_cores_here()})."),
     out: Optional[Path] = typer.Option(None, help="Study folder (default: out/studies/<name>)."),
     trials: Optional[int] = typer.Option(None, help="Trials per grid point instead of the "
                                          "file's (a larger value later extends the same study)."),
@@ -53,6 +64,8 @@ def run(
     report: bool = typer.Option(False, "--report", help="Write the report when the run ends."),
 ) -> None:
     """Run a study; trials already in the study folder are skipped (resume)."""
+    from rfp_twin.twin.studies import default_out_dir, load_study, run_study
+
     study = load_study(file)
     if scheduler is not None and workers is not None:
         err_console.print("note: --workers applies to a LocalCluster only; the scheduler's "
@@ -136,6 +149,7 @@ def consolidate(
 ) -> None:
     """Merge a study folder's per-trial files into DIR/results/trials.parquet (verified, then
     the per-trial files are removed); `study run` does this itself when a study finishes."""
+    from rfp_twin.twin.studies import consolidate_results
     from rfp_twin.twin.studies.spec import StudyError
     from rfp_twin.twin.studies.store import RESULTS, WriterLock, data_files
 
@@ -159,6 +173,8 @@ def consolidate(
 @one_line_errors
 def list_cmd() -> None:
     """List the studies shipped with rfp-twin."""
+    from rfp_twin.twin.studies import list_studies, load_study
+
     t = Table(title="shipped studies (twin/study_files/*.toml)")
     for c in ("name", "points", "trials/point", "trials", "description"):
         t.add_column(c)
