@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from rfp_twin.models.layout import Layout
-from rfp_twin.models.mjcf import BIT_BETA, COLLISION_GROUP, VISUAL_GROUP, ModelOptions, ServoParams, build_model
+from rfp_twin.models.mjcf import BIT_ALPHA, BIT_BETA, COLLISION_GROUP, VISUAL_GROUP, ModelOptions, ServoParams, build_model
 from rfp_twin.models.robot import load_spec
 
 
@@ -59,17 +59,47 @@ def test_fiber_sites_sit_on_the_focal_surface_where_kinematics_puts_them(sdss7):
     assert twin.angles(d) == pytest.approx(angles)
 
 
-def test_alpha_arms_never_touch_at_the_sdss_pitch(sdss7):
+def _alpha_geoms(twin) -> np.ndarray:
+    m, idx = twin.model, twin.index
+    return np.flatnonzero((m.geom_group == COLLISION_GROUP) & np.isin(m.geom_bodyid, idx.alpha_body))
+
+
+def test_alpha_pieces_skip_each_other_where_they_cannot_meet(sdss7):
+    """At the SDSS pitch two alpha arms never touch (2 x 10.6 mm < 22.4 mm): the model does
+    not test them against each other (their contact bits), and geometry agrees."""
     twin = sdss7
-    d = mujoco.MjData(twin.model)
-    alpha_geoms = np.zeros(twin.model.ngeom, bool)
-    alpha_geoms[[g for k in range(7) for g in twin.index.robot_geoms(k, collision=True)
-                 if twin.model.geom_bodyid[g] == twin.index.alpha_body[k]]] = True
+    m, idx = twin.model, twin.index
+    alpha = _alpha_geoms(twin)
+    assert alpha.size and not np.any(m.geom_conaffinity[alpha] & BIT_ALPHA)
+    assert np.all(m.geom_conaffinity[alpha] & BIT_BETA)          # still meet beta arms
+    d = mujoco.MjData(m)
     rng = np.random.default_rng(5)
-    for _ in range(100):
+    owner = idx.geom_robot[alpha]
+    for _ in range(30):
         twin.set_angles(d, np.column_stack([rng.uniform(0, 360, 7), np.full(7, 180.0)]))
-        g = np.asarray(d.contact.geom).reshape(-1, 2)
-        assert not np.any(alpha_geoms[g[:, 0]] & alpha_geoms[g[:, 1]])
+        for i in range(alpha.size):
+            for j in range(i + 1, alpha.size):
+                if owner[i] != owner[j]:
+                    assert mujoco.mj_geomDistance(m, d, alpha[i], alpha[j], 50.0, None) > 0.5
+
+
+def test_alpha_pieces_meet_where_the_pitch_lets_them():
+    spec = load_spec("sdss-v")
+    twin = build_model(spec, Layout.hex_grid(1, 18.0))              # 2 x 10.6 mm > 18 mm
+    m, idx = twin.model, twin.index
+    alpha = _alpha_geoms(twin)
+    assert np.all(m.geom_conaffinity[alpha] & BIT_ALPHA)
+    xy = twin.layout.robot_xy
+    centre = int(np.argmin(np.hypot(*xy.T)))
+    east = int(np.flatnonzero((np.abs(xy[:, 1]) < 1e-9) & (xy[:, 0] > 1.0))[0])
+    angles = np.column_stack([np.full(7, 90.0), np.full(7, 180.0)])
+    angles[centre, 0], angles[east, 0] = 0.0, 180.0                 # alpha arms face each other
+    d = twin.make_data(angles)
+    g = np.asarray(d.contact.geom).reshape(-1, 2)
+    pair = {int(idx.geom_robot[g[k, 0]]) for k in range(len(g))
+            if np.isin(g[k], alpha).all()} | {int(idx.geom_robot[g[k, 1]]) for k in range(len(g))
+                                              if np.isin(g[k], alpha).all()}
+    assert pair == {centre, east}
 
 
 def test_without_alpha_collisions_only_beta_and_fiducials_collide():
