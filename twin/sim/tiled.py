@@ -66,20 +66,23 @@ class _TileState:
         self.act = idx.actuator.ravel()
         self.act_g = _flat(tile.robots)
         self.contacts = ContactRecorder(idx, owned=tile.owned)
+        # views into the MjData buffers, made once (each attribute access builds a new one)
+        self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
 
     def step(self, q_now: np.ndarray, v_now: np.ndarray, ctrl: np.ndarray, q_next: np.ndarray,
              v_next: np.ndarray, t_now: float) -> None:
         """One physics step from the whole-array state (q_now, v_now) (2n,) rad, rad/s
         with servo targets ctrl (2n,) rad; writes the owned robots into (q_next, v_next)."""
         d = self.data
-        d.qpos[self.halo_q] = q_now[self.halo_g]
-        d.qvel[self.halo_v] = v_now[self.halo_g]
-        d.ctrl[self.act] = ctrl[self.act_g]
+        qpos, qvel = self._qpos, self._qvel
+        qpos[self.halo_q] = q_now[self.halo_g]
+        qvel[self.halo_v] = v_now[self.halo_g]
+        self._ctrl[self.act] = ctrl[self.act_g]
         mujoco.mj_step(self.model, d)
         if d.ncon:
             self.contacts.add(d, t_now)
-        q_next[self.own_g] = d.qpos[self.own_q]
-        v_next[self.own_g] = d.qvel[self.own_v]
+        q_next[self.own_g] = qpos[self.own_q]
+        v_next[self.own_g] = qvel[self.own_v]
 
 
 def _balanced_groups(sizes: list[int], k: int) -> list[list[int]]:
