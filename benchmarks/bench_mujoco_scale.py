@@ -11,15 +11,16 @@ preset ``raft-6p2`` on ``raft:8`` (504 robots), ``raft:32`` (2,016) and ``raft:2
 (12,852); ``--huge`` adds ``raft:476`` (29,988), ``--sdss`` adds ``hex:12871`` with
 ``sdss-v``. For each:
 
-- build: ``rfp_twin.models.mjcf.build_model`` wall seconds, split into the spec (robots
-  added, in blocks) and MuJoCo's compile, and the arena MuJoCo reserves (address space);
+- build: the twin as ``rfp-twin simulate`` builds it (``build_with_progress``: one model up
+  to 2,000 robots, tiles of <= 512 robots above; ``--one-model`` forces one model), wall
+  seconds, and the arena MuJoCo reserves (address space, all tiles);
 - simulation: a trajectory where every robot leaves its fold by 20 deg on both axes and
   comes back in ``--sim-s`` s, simulated with ``rfp_twin.twin.sim.simulate`` (settle 0.2 s):
   physics steps per wall second and the real-time factor (simulated s / wall s of the
   stepping loop);
-- rendering: ``FrameRenderer`` at 1280x720, top camera, lean settings: set-up seconds
-  (the re-meshed render model is built again) and frames per wall second over
-  ``--frames`` frames, with the number of geoms drawn and the scene capacity;
+- rendering: the renderer ``rfp-twin render`` picks (``make_renderer``: FrameRenderer, or
+  MergedFrameRenderer for large arrays) at 1280x720, top camera, lean settings: set-up
+  seconds and frames per wall second over ``--frames`` frames;
 - recording: ``rfp_twin.twin.record.record_run`` of that simulation: wall seconds and
   file size (``--no-record`` skips it);
 - peak RSS of the process after each step (``resource.getrusage``, MB).
@@ -59,29 +60,28 @@ def one(preset: str, name: str, args) -> dict:
 
     from rfp_twin.models.errors import SpecError
     from rfp_twin.models.layout import layout_by_name
-    from rfp_twin.models.mjcf import ModelOptions, build_model
+    from rfp_twin.models.mjcf import ModelOptions
     from rfp_twin.models.robot import load_spec
     from rfp_twin.models.trajectory import Trajectory
+    from rfp_twin.twin.cli.run import build_with_progress
     from rfp_twin.twin.record import record_run
-    from rfp_twin.twin.render import FrameRenderer, RenderSettings
+    from rfp_twin.twin.render import RenderSettings, make_renderer
     from rfp_twin.twin.sim import SimSettings, simulate
 
     spec = load_spec(preset)
     lay = layout_by_name(name, spec.pitch_mm)
     out: dict = {"preset": preset, "layout": name, "robots": lay.n_robots}
-    marks = {}
     t0 = time.perf_counter()
     try:
-        twin = build_model(spec, lay, options=ModelOptions(timestep_s=args.timestep),
-                           progress=lambda stage, done, total: marks.setdefault(
-                               stage, time.perf_counter()))
+        twin = build_with_progress(spec, lay, ModelOptions(timestep_s=args.timestep),
+                                   0 if args.one_model else None)
     except SpecError as exc:
         out.update(build_s=time.perf_counter() - t0, refused=str(exc), peak_build_mb=peak_mb())
         return out
     out["build_s"] = time.perf_counter() - t0
-    out["spec_s"] = marks.get("compiling", t0) - t0
-    out["compile_s"] = out["build_s"] - out["spec_s"]
-    out["arena_mb"] = twin.model.narena / 2**20
+    models = [t.twin.model for t in twin.tiles] if hasattr(twin, "tiles") else [twin.model]
+    out["tiles"] = len(models) if hasattr(twin, "tiles") else 0
+    out["arena_mb"] = sum(m.narena for m in models) / 2**20
     out["peak_build_mb"] = peak_mb()
 
     n, (fa, fb) = lay.n_robots, spec.fold_deg
@@ -94,7 +94,7 @@ def one(preset: str, name: str, args) -> dict:
                peak_sim_mb=peak_mb())
 
     t = time.perf_counter()
-    with FrameRenderer(twin, RenderSettings(width=1280, height=720, camera="top")) as fr:
+    with make_renderer(twin, RenderSettings(width=1280, height=720, camera="top")) as fr:
         out["render_setup_s"] = time.perf_counter() - t
         angles = np.asarray(report.record.angles)
         frame = np.empty((720, 1280, 3), dtype=np.uint8)
@@ -104,8 +104,7 @@ def one(preset: str, name: str, args) -> dict:
         for j in range(k):
             fr.render(angles[(j * 3) % len(angles)], np.full(n, j % 4), out=frame)
         out["render_fps"] = k / (time.perf_counter() - t)
-        out["scene_geoms"] = int(fr.scene.ngeom)
-        out["scene_capacity"] = int(fr.scene.maxgeom)
+        out["renderer"] = type(fr).__name__
     out["peak_render_mb"] = peak_mb()
 
     if args.record:
@@ -132,6 +131,8 @@ def main() -> int:
     ap.add_argument("--timestep", type=float, default=0.004, help="MuJoCo timestep, s")
     ap.add_argument("--frames", type=int, default=5, help="frames timed per array")
     ap.add_argument("--only", nargs="*", help="layouts to run (names as in the table)")
+    ap.add_argument("--one-model", action="store_true",
+                    help="one MuJoCo model of the whole array (no tiles)")
     ap.add_argument("--one", nargs=2, metavar=("PRESET", "LAYOUT"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.one:
@@ -149,6 +150,8 @@ def main() -> int:
                "--timestep", str(args.timestep), "--frames", str(args.frames)]
         if not args.record:
             cmd.append("--no-record")
+        if args.one_model:
+            cmd.append("--one-model")
         t = time.perf_counter()
         r = subprocess.run(cmd, capture_output=True, text=True, env=os.environ.copy())
         lines = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")]
@@ -165,9 +168,9 @@ def main() -> int:
     print(f"- command: `{command_line()}`; timestep {args.timestep * 1e3:g} ms, every robot "
           f"moves 20 deg out and back in {args.sim_s:g} s")
     print()
-    print("| preset | layout | robots | build s (spec + compile) | arena MB (reserved) | "
+    print("| preset | layout | robots | build s (tiles) | arena MB (reserved) | "
           "peak MB build / sim / render / record | steps/s | real-time x | render fps 1280x720 "
-          "(geoms / capacity) | render setup s | record s (MB) |")
+          "(renderer) | render setup s | record s (MB) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         if "refused" in r:
@@ -178,10 +181,11 @@ def main() -> int:
         peaks = " / ".join(cell(r, k, "{:.0f}") for k in
                            ("peak_build_mb", "peak_sim_mb", "peak_render_mb", "peak_record_mb"))
         rec = f"{r['record_s']:.1f} ({r['record_mb']:.0f})" if "record_s" in r else "-"
+        tiles = f"{r['tiles']} tiles" if r["tiles"] else "one model"
         print(f"| {r['preset']} | {r['layout']} | {r['robots']} | {r['build_s']:.1f} "
-              f"({r['spec_s']:.1f} + {r['compile_s']:.1f}) | {r['arena_mb']:.0f} | {peaks} | "
+              f"({tiles}) | {r['arena_mb']:.0f} | {peaks} | "
               f"{r['steps_s']:.0f} | {r['rtf']:.2f} | {r['render_fps']:.1f} "
-              f"({r['scene_geoms']} / {r['scene_capacity']}) | {r['render_setup_s']:.1f} | {rec} |")
+              f"({r['renderer']}) | {r['render_setup_s']:.1f} | {rec} |")
     print("<!-- bench-mujoco-scale:end -->")
     return 0
 

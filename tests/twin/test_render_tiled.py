@@ -4,6 +4,8 @@ around the robot, posed from the whole-array angles, and draws the frame the who
 model draws."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -12,7 +14,8 @@ from rfp_twin.models.layout import layout_by_name
 from rfp_twin.models.mjcf import build_model
 from rfp_twin.models.mjcf.tiled_twin import build_tiled
 from rfp_twin.models.robot import load_spec
-from rfp_twin.twin.render import MergedFrameRenderer, RenderError, RenderSettings, make_renderer
+from rfp_twin.twin.render import (FrameRenderer, MergedFrameRenderer, RenderError, RenderSettings,
+                                  make_renderer)
 from rfp_twin.twin.render.tile_closeup import TileCloseupRenderer, closeup_robot
 
 SPEC = load_spec("sdss-v")
@@ -24,9 +27,17 @@ def pair():
     return build_model(SPEC, lay), build_tiled(SPEC, lay, max_robots=300)
 
 
-def test_wide_cameras_of_a_tiled_twin_use_the_merged_renderer(pair):
-    _, tiled = pair
-    with make_renderer(tiled, RenderSettings(width=320, height=240, camera="oblique")) as fr:
+def test_wide_cameras_of_a_tiled_twin_draw_what_the_one_model_draws(pair):
+    """919 robots >= 10 px apart: FrameRenderer of a one-model copy (the merged renderer
+    when asked for)."""
+    one, tiled = pair
+    settings = RenderSettings(width=320, height=240, camera="oblique")
+    rng = np.random.default_rng(4)
+    angles = np.column_stack([rng.uniform(0, 360, 919), rng.uniform(5, 175, 919)])
+    with make_renderer(one, settings) as a, make_renderer(tiled, settings) as b:
+        assert type(a) is type(b) is FrameRenderer
+        assert np.array_equal(a.render(angles), b.render(angles))
+    with make_renderer(tiled, replace(settings, merged=True)) as fr:
         assert isinstance(fr, MergedFrameRenderer)
         assert fr.render().shape == (240, 320, 3)
 

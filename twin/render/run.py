@@ -12,7 +12,7 @@ from typing import Callable
 
 import numpy as np
 
-from rfp_twin.models.mjcf import TwinModel
+from rfp_twin.models.mjcf import TwinModel, build_model
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.render.backend import RenderError, require_backend
 from rfp_twin.twin.render.frames import FrameRenderer
@@ -28,16 +28,22 @@ from rfp_twin.twin.sim import SimReport, SimSettings, simulate
 Progress = Callable[[int, int], None]
 
 
+#: A tiled twin whose robots are too far apart in the frame for top caps is drawn from a
+#: one-model copy up to this many robots (its compile is quadratic: ~4 s at 5,000).
+ONE_MODEL_RENDER_MAX = 5000
+
+
 def make_renderer(twin: TwinModel, settings: RenderSettings):
     """The renderer for ``twin`` with ``settings``: :class:`MergedFrameRenderer` when
     :func:`rfp_twin.twin.render.merged.use_merged` says so (``settings.merged``, or auto:
     a wide camera and a large array whose robots are a few pixels, drawn as top caps),
-    else :class:`FrameRenderer`. A tiled twin (no whole-array model) is drawn by
-    MergedFrameRenderer on the wide cameras and by the tile holding the robot for the
-    close-up (:class:`rfp_twin.twin.render.tile_closeup.TileCloseupRenderer`)."""
-    if hasattr(twin, "tiles"):
-        if settings.wide:
-            return MergedFrameRenderer(twin.spec, twin.layout, twin.geometry, settings)
+    else :class:`FrameRenderer`. A tiled twin has no whole-array model: its close-up is
+    drawn from the part of the array around the robot
+    (:class:`rfp_twin.twin.render.tile_closeup.TileCloseupRenderer`), and where
+    FrameRenderer is the choice on a wide camera, from a one-model copy of up to
+    :data:`ONE_MODEL_RENDER_MAX` robots (larger: MergedFrameRenderer with full meshes)."""
+    tiled = hasattr(twin, "tiles")
+    if tiled and not settings.wide:
         from rfp_twin.twin.render.tile_closeup import TileCloseupRenderer
 
         return TileCloseupRenderer(twin, settings)
@@ -45,8 +51,11 @@ def make_renderer(twin: TwinModel, settings: RenderSettings):
     if settings.wide and settings.merged is None and twin.n_robots > MERGED_MIN_ROBOTS:
         pitch_px = wide_camera_setup(twin.spec, twin.layout, twin.geometry.params,
                                      settings)[3]
-    if use_merged(settings, twin.n_robots, pitch_px):
+    if use_merged(settings, twin.n_robots, pitch_px) or (
+            tiled and twin.n_robots > ONE_MODEL_RENDER_MAX):
         return MergedFrameRenderer(twin.spec, twin.layout, twin.geometry, settings)
+    if tiled:
+        twin = build_model(twin.spec, twin.layout, twin.geometry, twin.options)
     return FrameRenderer(twin, settings)
 
 
