@@ -37,6 +37,7 @@ import os
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import mujoco
 import numpy as np
@@ -152,7 +153,8 @@ def _summary_markdown(report: SimReport) -> str:
 def record_run(twin: TwinModel | TiledTwin, trajectory: Trajectory | None, out_rrd: str | Path,
                sim_report: SimReport | None = None, faults=(),
                sim_settings: SimSettings | None = None,
-               settings: RecordSettings | None = None) -> Path:
+               settings: RecordSettings | None = None,
+               progress: Callable[[int, int], None] | None = None) -> Path:
     """Write a .rrd recording of a run (see the module docstring for its contents).
 
     Parameters
@@ -163,6 +165,8 @@ def record_run(twin: TwinModel | TiledTwin, trajectory: Trajectory | None, out_r
     sim_report : a finished simulation with its record; default: simulate ``trajectory``
         with ``faults`` and ``sim_settings`` (:func:`rfp_twin.twin.sim.simulate`)
     settings : RecordSettings
+    progress : called as ``progress(robots_logged, n_robots)`` as the robots are logged
+        (part by part: a tiled twin tile by tile)
 
     Returns
     -------
@@ -185,7 +189,7 @@ def record_run(twin: TwinModel | TiledTwin, trajectory: Trajectory | None, out_r
     rec = rr.RecordingStream(APPLICATION_ID, send_properties=False)
     try:
         rec.save(tmp)
-        _log_run(rec, twin, sim_report, settings)
+        _log_run(rec, twin, sim_report, settings, progress)
         rec.flush()
         rec.disconnect()
         os.chmod(tmp, 0o644)
@@ -199,8 +203,8 @@ def record_run(twin: TwinModel | TiledTwin, trajectory: Trajectory | None, out_r
     return out
 
 
-def _log_run(rec: rr.RecordingStream, twin, report: SimReport,
-             settings: RecordSettings) -> None:
+def _log_run(rec: rr.RecordingStream, twin, report: SimReport, settings: RecordSettings,
+             progress: Callable[[int, int], None] | None = None) -> None:
     geometry = twin.geometry
     record = report.record
     robot_ids = np.asarray(twin.layout.robot_ids)
@@ -229,6 +233,7 @@ def _log_run(rec: rr.RecordingStream, twin, report: SimReport,
     mesh_arch = {name: _mesh3d(meshes[name], RGBA[name]) for name in ("body", "alpha", "beta")}
     keep = _changed(angles, POSE_EPS_DEG)
     strips: list[dict[int, np.ndarray]] = [{} for _ in trace]
+    logged = 0
     # part by part (a tiled twin: tile by tile, so only one tile's poses are in memory)
     for robots, poses in iter_link_poses(twin, angles, [fibers.index(f) for f in trace]):
         _log_robots(rec, poses, robot_ids[robots], times, keep[:, robots], fibers,
@@ -237,6 +242,9 @@ def _log_run(rec: rr.RecordingStream, twin, report: SimReport,
             for j, k in enumerate(robots):
                 if len(times) and not np.isnan(poses.tips[0, j, c, 0]):
                     strips[c][int(k)] = _strip(poses.tips[:, j, c])
+        logged += robots.size
+        if progress is not None:
+            progress(logged, robot_ids.size)
     parts = model_parts(twin)
     _log_obstacles(rec, parts, meshes)
     _log_plate(rec, parts)

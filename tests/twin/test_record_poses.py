@@ -56,3 +56,16 @@ def test_a_tiled_recording_verifies_with_each_robot_and_wall_once(tmp_path):
     gfa = [e for e in ent if e.startswith("/gfa/")]
     assert len(gfa) == 6 and all(rows(ent[e], static=True) == 1 for e in gfa)
     assert rows(ent["/plate"], static=True) == 1
+
+
+def test_record_reports_its_progress_over_every_robot(tmp_path):
+    lay = layout_by_name("hex:37", SPEC.pitch_mm)
+    ids = lay.robot_ids
+    n = ids.size
+    traj = Trajectory.from_breakpoints(ids, [[0.0, 0.2]] * n, [[0.0, 10.0]] * n,
+                                       [[0.0, 0.2]] * n, [[180.0, 170.0]] * n)
+    calls = []
+    record_run(build_tiled(SPEC, lay, max_robots=10), traj, tmp_path / "p.rrd",
+               progress=lambda done, total: calls.append((done, total)))
+    assert len(calls) >= 4 and calls[-1] == (n, n)
+    assert [c[0] for c in calls] == sorted(c[0] for c in calls)

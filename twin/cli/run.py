@@ -13,7 +13,7 @@ import typer
 
 from rfp_twin.models.errors import RfpError
 from rfp_twin.twin.cli.layout_option import CALIBRATION_HELP, LAYOUT_HELP, chosen_layout
-from rfp_twin.twin.cli.console import (EXIT_COLLISION, console, err_console, fail, one_line_errors,
+from rfp_twin.twin.cli.console import (EXIT_COLLISION, console, fail, one_line_errors,
                                   progress_bar)
 from rfp_twin.twin.cli.plan import parse_ids
 
@@ -173,6 +173,8 @@ def record(
     settings = RecordSettings(dt_s=dt)
     twin = build_with_progress(spec, lay, tile_robots=tile_robots)
     sim_report = simulate_with_progress(twin, traj, record=True)
-    with err_console.status("recording"):
-        path = record_run(twin, traj, out, sim_report=sim_report, settings=settings)
+    with progress_bar("recording", "{task.completed}/{task.total} robots") as progress:
+        task = progress.add_task("", total=lay.n_robots)
+        path = record_run(twin, traj, out, sim_report=sim_report, settings=settings,
+                          progress=lambda done, total: progress.update(task, completed=done))
     console.print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB); open it with `rerun {path}`")
