@@ -165,6 +165,17 @@ class OffscreenOwner:
             finally:
                 self._gl = None
 
+    def _begin_frame(self, angles_deg, states) -> None:
+        """Before drawing a frame: check the renderer is open, pose / colour the robots
+        when ``angles_deg`` (n, 2) / ``states`` (n,) are given, make its GL context current."""
+        if self._con is None:
+            raise RenderError("render() after close(); allowed: a renderer that is open")
+        if angles_deg is not None:
+            self.set_angles(angles_deg)
+        if states is not None:
+            self.set_states(states)
+        self._gl.make_current()
+
     def __enter__(self):
         return self
 
@@ -245,13 +256,7 @@ class FrameRenderer(OffscreenOwner):
                out: np.ndarray | None = None) -> np.ndarray:
         """One frame, (height, width, 3) uint8, top row first. Poses / colours the robots
         first when ``angles_deg`` (n, 2) / ``states`` (n,) are given."""
-        if self._con is None:
-            raise RenderError("render() after close(); allowed: a renderer that is open")
-        if angles_deg is not None:
-            self.set_angles(angles_deg)
-        if states is not None:
-            self.set_states(states)
-        self._gl.make_current()
+        self._begin_frame(angles_deg, states)
         mujoco.mjv_updateScene(self.model, self.data, self.option, None, self.camera,
                                mujoco.mjtCatBit.mjCAT_ALL, self.scene)
         if self.scene.ngeom >= self.scene.maxgeom:      # pragma: no cover - capacity above

@@ -453,13 +453,7 @@ class MergedFrameRenderer(OffscreenOwner):
                out: np.ndarray | None = None) -> np.ndarray:
         """One frame, (height, width, 3) uint8, top row first. Poses / colours the robots
         first when ``angles_deg`` (n, 2) / ``states`` (n,) are given."""
-        if self._con is None:
-            raise RenderError("render() after close(); allowed: a renderer that is open")
-        if angles_deg is not None:
-            self.set_angles(angles_deg)
-        if states is not None:
-            self.set_states(states)
-        self._gl.make_current()
+        self._begin_frame(angles_deg, states)
         self._upload()
         if out is None:
             out = np.empty_like(self._buf)

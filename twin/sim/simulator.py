@@ -58,6 +58,14 @@ class SimSettings:
             raise TrajectoryError(f"field 'duration_s' = {self.duration_s!r}; allowed: > 0 s")
 
 
+def step_count(settings: SimSettings, trajectory: Trajectory, dt: float) -> int:
+    """Physics steps of ``dt`` s a run takes: ``settings.duration_s``, else the trajectory's
+    duration plus ``settings.settle_s``, rounded up (at least one)."""
+    sim_s = settings.duration_s if settings.duration_s is not None \
+        else trajectory.duration + settings.settle_s
+    return max(1, int(math.ceil(sim_s / dt - 1e-9)))
+
+
 def mujoco_warnings(d: mujoco.MjData) -> dict[str, int]:
     """MuJoCo warnings raised so far: name -> count (empty when none)."""
     out = {}
@@ -101,9 +109,7 @@ class Simulator:
         m = twin.model
         self.data = mujoco.MjData(m)
         self.dt = float(m.opt.timestep)
-        sim_s = self.settings.duration_s if self.settings.duration_s is not None \
-            else trajectory.duration + self.settings.settle_s
-        self.n_steps = max(1, int(math.ceil(sim_s / self.dt - 1e-9)))
+        self.n_steps = step_count(self.settings, trajectory, self.dt)
         self.sim_s = self.n_steps * self.dt
         idx = twin.index
         self._act_flat = _as_slice(idx.actuator.ravel())

@@ -22,7 +22,6 @@ Units: angles in degrees, times in seconds, lengths in mm; n robots in layout or
 """
 from __future__ import annotations
 
-import math
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -104,7 +103,7 @@ class TiledSimulator:
 
     def __init__(self, twin: TiledTwin, trajectory: Trajectory, faults=(), settings=None,
                  threads: int | None = None) -> None:
-        from rfp_twin.twin.sim.simulator import SimSettings
+        from rfp_twin.twin.sim.simulator import SimSettings, step_count
 
         self.twin = twin
         self.trajectory = trajectory
@@ -113,9 +112,7 @@ class TiledSimulator:
         self.commands = Commands(twin, trajectory, self.faults, self.settings.feedforward)
         self.tiles = [_TileState(t) for t in twin.tiles]
         self.dt = float(self.tiles[0].model.opt.timestep)
-        sim_s = self.settings.duration_s if self.settings.duration_s is not None \
-            else trajectory.duration + self.settings.settle_s
-        self.n_steps = max(1, int(math.ceil(sim_s / self.dt - 1e-9)))
+        self.n_steps = step_count(self.settings, trajectory, self.dt)
         self.sim_s = self.n_steps * self.dt
         cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
         self.threads = max(1, min(int(threads or cpus or 1), len(self.tiles)))
