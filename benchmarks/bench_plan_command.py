@@ -55,11 +55,15 @@ STAGES = (("imports", ("stage_wall_s", "imports")), ("setup", ("stage_wall_s", "
           ("verify", ("postprocess", "stage_seconds", "verify")))
 
 
+#: ``--algorithm`` of the runs (set by main).
+ALGORITHM = ["greedy"]
+
+
 def run_once(command: list[str], preset: str, buffer_mm: float, seed: int,
              out: Path) -> tuple[float, float, int, dict]:
     """One run in a fresh process: (wall s, CPU s, peak RSS MiB, summary.json as a dict)."""
     args = [*command, "plan", "--preset", preset, "--buffer", f"{buffer_mm:g}", "--seed",
-            str(seed), "--out", str(out), "--force"]
+            str(seed), "--algorithm", ALGORITHM[0], "--out", str(out), "--force"]
     with tempfile.TemporaryFile() as err:
         t0 = time.perf_counter()
         proc = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=err)
@@ -123,11 +127,13 @@ def main() -> None:
     ap.add_argument("--buffers", type=float, nargs="+", default=[2.0, 2.5])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--preset", default="sdss-v")
+    ap.add_argument("--algorithm", default="greedy", choices=["greedy", "markov"])
     ap.add_argument("--command", action="append", default=None,
                     help="The command to time (split on spaces), from the repository root "
                          "[default: .venv/bin/rfp-twin]; repeat to compare commands.")
     ap.add_argument("--md-out", default=None)
     a = ap.parse_args()
+    ALGORITHM[0] = a.algorithm
     commands = [c.split() for c in (a.command or [".venv/bin/rfp-twin"])]
     print(machine_info("numba", "scipy"), file=sys.stderr)
     rows: list[list[list[str]]] = [[] for _ in commands]
@@ -142,12 +148,14 @@ def main() -> None:
                     rows[k].append(row(b, seed, r))
                     walls[k].append(r["wall"])
                     print(f"[{' '.join(commands[k])}] " + " | ".join(rows[k][-1]), file=sys.stderr)
-    blocks = [f"### `rfp-twin plan --preset {a.preset}` (whole command, warm numba cache)\n\n"
+    blocks = [f"### `rfp-twin plan --preset {a.preset} --algorithm {a.algorithm}` (whole command, "
+              "warm numba cache)\n\n"
               f"{machine_info('numba', 'scipy')}\n\n{a.repeat} runs per case after one warm-up"
               + (", the commands in turn" if len(commands) > 1 else "")
               + "; stages: medians from summary.json (s)."]
     for command, rs, ws in zip(commands, rows, walls):
-        blocks.append(f"`{' '.join(command)} plan --preset {a.preset} --buffer B --seed S --out "
+        blocks.append(f"`{' '.join(command)} plan --preset {a.preset} --algorithm {a.algorithm} "
+                      "--buffer B --seed S --out "
                       f"DIR --force`\n\n" + md_table(HEADER, rs)
                       + f"\n\nMedian over the cases: {statistics.median(ws):.2f} s (target <= 2 s).")
     blocks.append(f"Load at the end: {load_average()}.")
