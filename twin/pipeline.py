@@ -216,20 +216,23 @@ class Reconfiguration:
                                     progress=on_round)
         return plan, None
 
-    def deliver(self, plan) -> tuple[Trajectory, object, object]:
+    def deliver(self, plan, progress: Callable[[int, int], None] | None = None
+                ) -> tuple[Trajectory, object, object]:
         """Firmware-ready trajectory (or the raw stepwise one), its post-processing report
         (None when raw) and the independent 2D check of what is delivered:
         ``(Trajectory, PostprocessReport | None, CheckReport)``.
 
         Post-processed trajectories are checked at buffer - budget, raw ones at the
         planning buffer; the check the post-processing ran last on the whole trajectory
-        is that check (it is not run twice)."""
+        is that check (it is not run twice). ``progress(groups_timed, groups_to_time)``
+        follows the post-processing's timing of the groups."""
         o = self.options
         if o.raw:
             traj = Trajectory.from_plan(plan)
             return traj, None, check_trajectory(traj, self.spec, self.layout, self.spec.buffer_mm)
         traj, post = postprocess(plan, self.geom, budget_mm=o.budget_mm, max_points=o.max_points,
-                                 backend=o.timing_backend, verifier=check_trajectory)
+                                 backend=o.timing_backend, verifier=check_trajectory,
+                                 progress=progress)
         check = post.final_check
         if check is None:
             check = check_trajectory(traj, self.spec, self.layout, post.verify_buffer_mm)
@@ -237,13 +240,15 @@ class Reconfiguration:
 
     def run(self, *, seed: int = 0, targets: np.ndarray | None = None,
             on_round: Callable[[int, int], None] | None = None,
-            on_stage: Callable[[str], None] | None = None) -> Outcome:
+            on_stage: Callable[[str], None] | None = None,
+            on_progress: Callable[[str, int, int], None] | None = None) -> Outcome:
         """Targets (given, or drawn from ``seed``), plan, post-process and check.
 
         The random sequence is the one of ``rfp-twin plan --seed SEED``: the same
         generator draws the targets and then drives the planner.
         ``on_stage(name)`` is called as each stage starts: "targets", "planning",
-        "post-processing" (or "checking" when raw)."""
+        "post-processing" (or "checking" when raw); ``on_progress(stage, done, total)``
+        follows the post-processing ("post-processing", groups timed of the round's)."""
         stage = on_stage or (lambda name: None)
         clock = time.perf_counter()
         seconds: dict[str, float] = {}
@@ -258,7 +263,9 @@ class Reconfiguration:
         seconds["plan"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         stage("checking" if self.options.raw else "post-processing")
-        traj, post, check = self.deliver(plan)
+        follow = None if on_progress is None else \
+            (lambda done, total: on_progress("post-processing", done, total))
+        traj, post, check = self.deliver(plan, progress=follow)
         seconds["deliver"] = time.perf_counter() - t0
         seconds["total"] = time.perf_counter() - clock
         return Outcome(self, seed, tg, plan, field, traj, post, check, seconds)

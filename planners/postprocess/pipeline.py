@@ -109,6 +109,8 @@ DEFAULT_PRESIMPLIFY_DEG = 0.2
 #: same median; 0.3 mm with the sqrt(2) narrowing and the 0.5 mm stretch: p95 1.214.
 DEFAULT_INTERACTION_MM = 0.3
 ALIGNMENTS = ("end", "start")
+#: ``progress`` is called every this many groups timed (and after the last).
+PROGRESS_EVERY = 64
 
 
 def _resolve_geometry(geom_or, buffer_mm) -> tuple[ArrayGeometry, float]:
@@ -139,7 +141,9 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                 align: str = "end",
                 backend: str = DEFAULT_BACKEND,
                 max_retries: int = 8,
-                verifier: Verifier | None) -> tuple[Trajectory, PostprocessReport]:
+                verifier: Verifier | None,
+                progress: Callable[[int, int], None] | None = None
+                ) -> tuple[Trajectory, PostprocessReport]:
     """Smooth, time, simplify and re-verify a plan (see the module docstring).
 
     Parameters
@@ -155,6 +159,8 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     smoothing, window_steps : method and initial window (plan steps) of
         :func:`rfp_twin.planners.smoothing.smooth_plan` [default window:
         :func:`rfp_twin.planners.smoothing.window_for_limits` of the spec and the plan's step]
+    progress : called as ``progress(groups_timed, groups_to_time)`` while each round times
+        its groups (the first round: every group; later rounds: the repaired ones)
     interaction_mm : clearance below which two robots share one path parameter, mm
     sample_s : time step of the dense samples that RDP reduces, s
     grid_steps : longest TOPP-RA grid interval, plan steps
@@ -231,7 +237,10 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         # 3-4. time, sample, simplify the groups that changed
         t0 = time.perf_counter()
         mrange = path.moving_range()
-        for g in sorted(dirty):
+        todo = sorted(dirty)
+        for done, g in enumerate(todo, 1):
+            if progress is not None and (done % PROGRESS_EVERY == 0 or done == len(todo)):
+                progress(done, len(todo))
             robots = np.flatnonzero(labels == g)
             if robots.size:
                 groups[g] = time_and_simplify(path, robots, vmax, amax, tol,

@@ -111,3 +111,13 @@ def test_folded_clearance_error_names_an_infeasible_design():
     tight = ArrayGeometry(spec, Layout.hex_grid_positions(7, 8.0), 2.0)
     err = folded_clearance_error(tight)
     assert err is not None and "infeasible" in str(err)
+
+
+def test_run_reports_the_post_processing_progress_over_every_group():
+    rc = Reconfiguration.from_names("sdss-v", "hex:91", buffer_mm=2.0)
+    calls = []
+    out = rc.run(seed=3, on_progress=lambda stage, done, total: calls.append((stage, done, total)))
+    assert calls and {c[0] for c in calls} == {"post-processing"}
+    first_round = [c for c in calls if c[2] == calls[0][2]]
+    assert first_round[-1][1] == first_round[-1][2] >= out.post.n_groups > 0
+    assert all(0 < d <= t for _, d, t in calls)

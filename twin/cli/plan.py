@@ -116,7 +116,12 @@ def plan(
                 progress.update(task, completed=rounds, total=rounds,
                                 description=f"{n} robots: {name}")
 
-        outcome = rc.run(seed=seed, targets=tg, on_round=on_round, on_stage=on_stage)
+        def on_progress(name: str, done: int, total: int) -> None:
+            progress.update(task, completed=done, total=total,
+                            description=f"{n} robots: {name}, groups timed")
+
+        outcome = rc.run(seed=seed, targets=tg, on_round=on_round, on_stage=on_stage,
+                         on_progress=on_progress)
     t_run = time.perf_counter()
     summary = outcome.summary(layout=layout)
     summary["wall_time_s"] = time.perf_counter() - t_start
