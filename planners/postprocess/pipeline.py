@@ -43,7 +43,8 @@ Pipeline (:func:`postprocess`):
    step has its RDP and pre-simplification tolerances halved. The touched groups are
    redone and checked again with their neighbours: the other pairs did not change (up
    to one common time shift when the longest group changes), so their earlier result
-   stands. At most ``max_retries`` rounds; a trajectory that does not pass is never
+   stands (the verifier is asked for the pairs of the changed robots only: its
+   ``focus_ids``). At most ``max_retries`` rounds; a trajectory that does not pass is never
    returned (:class:`rfp_twin.models.errors.PlanningError`).
 
 The trajectory starts exactly at the plan's first configuration and ends exactly at
@@ -76,7 +77,8 @@ from rfp_twin.planners.smoothing import METHODS, SmoothPath, smooth_plan, window
 from rfp_twin.planners.smoothing_local import WindowRegions, smooth_plan_local
 from rfp_twin.planners.timing import BACKENDS, DEFAULT_BACKEND, interaction_groups, interaction_pairs
 
-#: ``verifier(trajectory, spec, layout, buffer_mm) -> report`` (see :func:`postprocess`).
+#: ``verifier(trajectory, spec, layout, buffer_mm, *, focus_ids=None) -> report`` (see
+#: :func:`postprocess`; ``focus_ids``: check only the pairs with one of these robots).
 Verifier = Callable[..., Any]
 
 __all__ = ["Verifier", "postprocess", "DEFAULT_BUDGET_MM", "DEFAULT_TOLERANCE_DEG",
@@ -170,8 +172,8 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         the kernel and counted in the report's ``timing_fallbacks``)
         (:func:`rfp_twin.planners.timing.time_group`)
     max_retries : verification rounds after the first
-    verifier : ``verifier(trajectory, spec, layout, buffer_mm) -> report`` with ``ok``,
-        ``collisions``, ``pair_ids``, ``pair_min_distance_mm``, ... (the 2D checker of
+    verifier : ``verifier(trajectory, spec, layout, buffer_mm, *, focus_ids=None) -> report``
+        with ``ok``, ``collisions``, ``pair_ids``, ``pair_min_distance_mm``, ... (the 2D checker of
         ``validation/``); required, so that nobody forgets it: ``None`` skips the
         verification (timing studies only; the report then says so). When the last
         round checked the whole trajectory, its report is ``report.final_check``.
@@ -255,17 +257,20 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         #    trajectory changed and their neighbours (other pairs are unchanged up to a
         #    common time shift, so their earlier result stands)
         t0 = time.perf_counter()
+        focus = {}
         if rounds == 0 or verifier is None:
             sub = traj = assemble(plan, groups, align, start_cfg, end_cfg)
         else:
             sel = np.flatnonzero(changed | (near @ changed.astype(np.int64) > 0))
             sub = assemble(plan, groups, align, start_cfg, end_cfg, robots=sel)
             traj = None
+            # only the pairs of a changed robot: the others are as last checked
+            focus = {"focus_ids": np.asarray(plan.robot_ids)[changed]}
         stages["simplify"] += time.perf_counter() - t0
         if verifier is None:
             break
         t0 = time.perf_counter()
-        check = verifier(sub, spec, geom.layout, verify_buffer)
+        check = verifier(sub, spec, geom.layout, verify_buffer, **focus)
         ledger.update(check)
         stages["verify"] += time.perf_counter() - t0
         rounds += 1

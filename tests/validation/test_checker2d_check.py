@@ -66,6 +66,34 @@ def test_static_folded_grid_clearance_is_analytic():
     assert report.n_samples == 2 * report.n_pairs      # static pairs need no refinement
 
 
+def test_focus_checks_only_the_pairs_of_the_named_robots():
+    """A re-check after some robots changed (post-processing rounds): only their pairs,
+    with the same minima as in the full check; a collision elsewhere is not looked at."""
+    layout = Layout.hex_grid(2, 22.4)
+    n = layout.n_robots
+    fa, fb = SPEC.fold_deg
+    ids = layout.robot_ids
+    a = [[fa, fa]] * n
+    xy = layout.robot_xy
+    # robot far from the centre swings its arm into its neighbour
+    k = int(np.argmax(xy[:, 0]))
+    a[k] = [fa, fa + 180.0]
+    traj = Trajectory.from_breakpoints(ids, [[0.0, 2.0]] * n, a, [[0.0, 2.0]] * n, [[fb, 10.0]
+                                       if i == k else [fb, fb] for i in range(n)])
+    full = check_trajectory(traj, SPEC, layout, BUF)
+    assert not full.ok
+    centre = int(np.argmin(np.hypot(*xy.T)))
+    part = check_trajectory(traj, SPEC, layout, BUF, focus_ids=[int(ids[centre])])
+    assert part.ok and 0 < part.n_pairs < full.n_pairs
+    assert all(int(ids[centre]) in p for p in part.pair_ids.tolist())
+    row = {tuple(p): d for p, d in zip(full.pair_ids.tolist(), full.pair_min_distance_mm)}
+    for p, d in zip(part.pair_ids.tolist(), part.pair_min_distance_mm):
+        assert d == pytest.approx(row[tuple(p)], abs=1e-12)
+    bad = check_trajectory(traj, SPEC, layout, BUF, focus_ids=[int(ids[k])])
+    assert {(c.robot_a, c.other) for c in bad.collisions} == \
+        {(c.robot_a, c.other) for c in full.collisions}
+
+
 # -- independence -------------------------------------------------------------------
 def test_checker_imports_no_planner_algorithm_and_no_planner_geometry():
     code = ("import rfp_twin.validation.checker2d, sys; "

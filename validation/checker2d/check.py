@@ -80,7 +80,8 @@ def _obstacle_pairs(base: np.ndarray, reach: np.ndarray, a: np.ndarray, b: np.nd
 
 def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_mm: float, *,
                      resolution_s: float = 1e-5, distance_tol_mm: float = 0.005,
-                     distance_rel_tol: float = 0.01) -> CheckReport:
+                     distance_rel_tol: float = 0.01,
+                     focus_ids: np.ndarray | None = None) -> CheckReport:
     """Check a trajectory densely against the 2D capsule model.
 
     Parameters
@@ -106,6 +107,10 @@ def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_m
         Per-pair minima are refined until within ``distance_tol_mm + distance_rel_tol
         * clearance`` of the true minimum (``clearance``: sampled minimum minus the
         threshold, if positive): close pairs to 0.005 mm, far pairs more loosely.
+    focus_ids : (k,) robot ids, optional
+        Check only the pairs with at least one of these robots (and their obstacles):
+        a re-check after some robots' trajectories changed, the other pairs being known.
+        Default: every pair.
 
     Returns
     -------
@@ -142,6 +147,10 @@ def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_m
     reach = la + rmax + buf
     rpairs = _robot_pairs(base, reach)
     fpairs = _obstacle_pairs(base, reach, fid_xy, fid_end, obuf)
+    if focus_ids is not None:
+        focus = np.isin(ids, np.asarray(focus_ids, dtype=np.int64).reshape(-1))
+        rpairs = rpairs[focus[rpairs[:, 0]] | focus[rpairs[:, 1]]]
+        fpairs = fpairs[focus[fpairs[:, 0]]]
     n_r, n_f = len(rpairs), len(fpairs)
 
     t_lo, t_hi = time_span(traj)
