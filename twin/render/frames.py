@@ -143,6 +143,17 @@ def visible_geoms(model: mujoco.MjModel, option: mujoco.MjvOption) -> int:
     return int(np.count_nonzero(shown & (np.asarray(model.geom_rgba)[:, 3] > 0)))
 
 
+def lean_scene(model: mujoco.MjModel, maxgeom: int, lean: bool) -> mujoco.MjvScene:
+    """A scene of room ``maxgeom`` for ``model``; with ``lean``, the costly effects off
+    (:data:`LEAN_OFF_FLAGS`)."""
+    scene = mujoco.MjvScene(model, maxgeom=int(maxgeom))
+    if lean:
+        for flag in LEAN_OFF_FLAGS:
+            if hasattr(mujoco.mjtRndFlag, flag):
+                scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
+    return scene
+
+
 class OffscreenOwner:
     """Base of the renderers: owns a GL context ``_gl`` and an MjrContext ``_con`` (None
     when not open); :meth:`close` frees them; a context manager."""
@@ -225,11 +236,7 @@ class FrameRenderer(OffscreenOwner):
         self.camera.fixedcamid = int(idx.camera[settings.camera])
         # room for every geom and site the options show: a full scene drops geoms silently
         # (MuJoCo only counts mjWARN_VGEOMFULL); 12,852 robots draw 38,557 geoms
-        self.scene = mujoco.MjvScene(m, maxgeom=scene_capacity(m))
-        if settings.lean:
-            for flag in LEAN_OFF_FLAGS:
-                if hasattr(mujoco.mjtRndFlag, flag):
-                    self.scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
+        self.scene = lean_scene(m, scene_capacity(m), settings.lean)
         # GL
         w, h = settings.width, settings.height
         self._gl, self._con = open_offscreen(self.backend, m, w, h)

@@ -51,7 +51,7 @@ from rfp_twin.models.mjcf.options import RGBA, VISUAL_GROUP
 from rfp_twin.models.robot import RobotSpec
 from rfp_twin.twin.render.backend import RenderError, require_backend
 from rfp_twin.twin.render.camera import lean_sections_for, wide_camera_setup
-from rfp_twin.twin.render.frames import (LEAN_OFF_FLAGS, SCENE_SPARE, OffscreenOwner,
+from rfp_twin.twin.render.frames import (SCENE_SPARE, OffscreenOwner, lean_scene,
                                          open_offscreen, project_points, state_colours)
 from rfp_twin.twin.render.settings import RenderSettings
 from rfp_twin.twin.render.timeline import STATE_NAMES
@@ -264,11 +264,7 @@ class MergedFrameRenderer(OffscreenOwner):
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
         self.camera.fixedcamid = int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA,
                                                        settings.camera))
-        self.scene = mujoco.MjvScene(m, maxgeom=int(m.ngeom + SCENE_SPARE))
-        if settings.lean:
-            for flag in LEAN_OFF_FLAGS:
-                if hasattr(mujoco.mjtRndFlag, flag):
-                    self.scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
+        self.scene = lean_scene(m, m.ngeom + SCENE_SPARE, settings.lean)
         w, h = settings.width, settings.height
         self._gl, self._con = open_offscreen(self.backend, m, w, h)
         self._rect = mujoco.MjrRect(0, 0, w, h)

@@ -83,7 +83,32 @@ def _as_slice(ids: np.ndarray):
     return ids
 
 
-class Simulator:
+class _RunSetup:
+    """What both simulators (one model, tiles) set up the same way: the inputs and the
+    :class:`Commands` of the run."""
+
+    def _setup(self, twin, trajectory: Trajectory, faults, settings: SimSettings | None) -> None:
+        self.twin = twin
+        self.trajectory = trajectory
+        self.settings = settings or SimSettings()
+        self.faults = list(faults)
+        self.commands = Commands(twin, trajectory, self.faults, self.settings.feedforward)
+
+    def _steps(self, chunk: int):
+        """Yield ``(k, servo targets (2n,) rad, nominal angles (n, 2) deg)`` for every
+        physics step k of the run; the commands are computed ``chunk`` steps at a time."""
+        step = 0
+        while step < self.n_steps:
+            k1 = min(self.n_steps, step + chunk)
+            t_grid = np.arange(step, k1 + 2) * self.dt
+            ctrl = self.commands.servo_targets(t_grid, self.dt)
+            nominal = self.commands.nominal(t_grid[:-2])
+            for j in range(k1 - step):
+                yield step + j, ctrl[j], nominal[j]
+            step = k1
+
+
+class Simulator(_RunSetup):
     """Runs one trajectory on a :class:`rfp_twin.models.mjcf.TwinModel`.
 
     Parameters
@@ -101,11 +126,7 @@ class Simulator:
 
     def __init__(self, twin: TwinModel, trajectory: Trajectory, faults=(),
                  settings: SimSettings | None = None) -> None:
-        self.twin = twin
-        self.trajectory = trajectory
-        self.settings = settings or SimSettings()
-        self.faults = list(faults)
-        self.commands = Commands(twin, trajectory, self.faults, self.settings.feedforward)
+        self._setup(twin, trajectory, faults, settings)
         m = twin.model
         self.data = mujoco.MjData(m)
         self.dt = float(m.opt.timestep)
@@ -144,27 +165,20 @@ class Simulator:
         act, qadr = self._act_flat, self._qpos_flat
         wall0 = time.perf_counter()
         with collect_mujoco_warnings() as messages:
-            step = 0
-            while step < self.n_steps:
-                k1 = min(self.n_steps, step + chunk)
-                t_grid = np.arange(step, k1 + 2) * self.dt
-                ctrl = self.commands.servo_targets(t_grid, self.dt)
-                nominal = self.nominal(t_grid[:-2])
-                for j in range(k1 - step):
-                    q = np.degrees(d.qpos[qadr]).reshape(n, 2)
-                    tracking.add(q, nominal[j])
-                    if rec_every and (step + j) % rec_every == 0:
-                        rec_t.append(d.time)
-                        rec_q.append(q.copy())
-                        rec_ref.append(nominal[j].copy())
-                        if callback is not None:
-                            callback(float(d.time), m, d)
-                    d.ctrl[act] = ctrl[j]
-                    t_now = d.time
-                    mujoco.mj_step(m, d)
-                    if d.ncon:  # contacts of the state at t_now
-                        contacts.add(d, t_now)
-                step = k1
+            for k, ctrl, nominal in self._steps(chunk):
+                q = np.degrees(d.qpos[qadr]).reshape(n, 2)
+                tracking.add(q, nominal)
+                if rec_every and k % rec_every == 0:
+                    rec_t.append(d.time)
+                    rec_q.append(q.copy())
+                    rec_ref.append(nominal.copy())
+                    if callback is not None:
+                        callback(float(d.time), m, d)
+                d.ctrl[act] = ctrl
+                t_now = d.time
+                mujoco.mj_step(m, d)
+                if d.ncon:  # contacts of the state at t_now
+                    contacts.add(d, t_now)
         wall = time.perf_counter() - wall0
         # final state against the nominal end
         q_end = twin.angles(d)

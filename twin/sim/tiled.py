@@ -33,8 +33,9 @@ from rfp_twin.models.mjcf import collect_mujoco_warnings
 from rfp_twin.models.mjcf.tiled_twin import Tile, TiledTwin
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.sim.contacts import ContactLog, ContactRecorder
-from rfp_twin.twin.sim.control import Commands, TrackingError, fiber_error_mm
+from rfp_twin.twin.sim.control import TrackingError, fiber_error_mm
 from rfp_twin.twin.sim.report import SimRecord, SimReport
+from rfp_twin.twin.sim.simulator import _RunSetup, mujoco_warnings, step_count
 
 #: Largest number of values in one chunk of servo targets or nominal angles (steps x 2n):
 #: a chunk of ``chunk_s`` is shortened on large arrays so that its arrays stay ~64 MB.
@@ -95,7 +96,7 @@ def _balanced_groups(sizes: list[int], k: int) -> list[list[int]]:
     return [g for g in groups if g]
 
 
-class TiledSimulator:
+class TiledSimulator(_RunSetup):
     """Runs one trajectory on a :class:`TiledTwin` (see the module docstring); the same
     parameters and result as :class:`rfp_twin.twin.sim.simulator.Simulator`, plus
     ``threads`` (default: the CPUs this process may use). The callback is called as
@@ -103,13 +104,7 @@ class TiledSimulator:
 
     def __init__(self, twin: TiledTwin, trajectory: Trajectory, faults=(), settings=None,
                  threads: int | None = None) -> None:
-        from rfp_twin.twin.sim.simulator import SimSettings, step_count
-
-        self.twin = twin
-        self.trajectory = trajectory
-        self.settings = settings or SimSettings()
-        self.faults = list(faults)
-        self.commands = Commands(twin, trajectory, self.faults, self.settings.feedforward)
+        self._setup(twin, trajectory, faults, settings)
         self.tiles = [_TileState(t) for t in twin.tiles]
         self.dt = float(self.tiles[0].model.opt.timestep)
         self.n_steps = step_count(self.settings, trajectory, self.dt)
@@ -147,35 +142,27 @@ class TiledSimulator:
         wall0 = time.perf_counter()
         try:
             with collect_mujoco_warnings() as messages:
-                step = 0
-                while step < self.n_steps:
-                    k1 = min(self.n_steps, step + chunk)
-                    t_grid = np.arange(step, k1 + 2) * self.dt
-                    ctrl = self.commands.servo_targets(t_grid, self.dt)
-                    nominal = self.nominal(t_grid[:-2])
-                    for j in range(k1 - step):
-                        t_now = (step + j) * self.dt
-                        angles = np.degrees(q).reshape(n, 2)
-                        tracking.add(angles, nominal[j])
-                        if rec_every and (step + j) % rec_every == 0:
-                            rec_t.append(t_now)
-                            rec_q.append(angles.copy())
-                            rec_ref.append(nominal[j].copy())
-                            if callback is not None:
-                                callback(float(t_now), None, None)
-                        c = ctrl[j]
+                for k, c, nominal in self._steps(chunk):
+                    t_now = k * self.dt
+                    angles = np.degrees(q).reshape(n, 2)
+                    tracking.add(angles, nominal)
+                    if rec_every and k % rec_every == 0:
+                        rec_t.append(t_now)
+                        rec_q.append(angles.copy())
+                        rec_ref.append(nominal.copy())
+                        if callback is not None:
+                            callback(float(t_now), None, None)
 
-                        def run_group(g, q=q, v=v, c=c, qn=q_next, vn=v_next, t=t_now):
-                            for i in g:
-                                tiles[i].step(q, v, c, qn, vn, t)
+                    def run_group(g, q=q, v=v, c=c, qn=q_next, vn=v_next, t=t_now):
+                        for i in g:
+                            tiles[i].step(q, v, c, qn, vn, t)
 
-                        if pool is None:
-                            run_group(groups[0])
-                        else:
-                            list(pool.map(run_group, groups))
-                        q, q_next = q_next, q
-                        v, v_next = v_next, v
-                    step = k1
+                    if pool is None:
+                        run_group(groups[0])
+                    else:
+                        list(pool.map(run_group, groups))
+                    q, q_next = q_next, q
+                    v, v_next = v_next, v
         finally:
             if pool is not None:
                 pool.shutdown()
@@ -214,7 +201,6 @@ def _merged_log(logs: list[ContactLog]) -> ContactLog:
 
 def _summed_warnings(tiles: list[_TileState]) -> dict[str, int]:
     """MuJoCo warning counts summed over the tiles."""
-    from rfp_twin.twin.sim.simulator import mujoco_warnings
 
     out: dict[str, int] = {}
     for ts in tiles:
