@@ -38,8 +38,13 @@ _MIN_TOLERANCE_DEG = 1e-3
 #: duration / stepwise p95 1.247 / 1.218 / 1.222 with 2-3 / 3-4 / 4-6 rounds.
 LOCAL_NARROWING = math.sqrt(2.0)
 #: A narrowed stretch of level 1 covers the steps in which the colliding pair is closer
-#: than this in the plan, mm (this / f at level 2, ...); 1 mm gave p95 1.218, 0.5 mm 1.214.
-_NEAR_MM = 0.5
+#: than this in the plan, mm (this / f at level 2, ...), plus the reach margins of
+#: :func:`narrow_locally`. 0: the collision's own steps only. Greedy + search at 2.5 mm
+#: (20 seeds, S8): 1 mm p95 1.218 (S5), 0.5 mm 1.214, 0.3 mm 1.208, 0.2 mm 1.186, 0.1 mm
+#: 1.139, 0.05 and 0 mm 1.126 (median 1.071 -> 1.066, max 1.232 -> 1.204); greedy at
+#: 2.0 mm p95 1.108 -> 1.101, Markov at 2.0 / 2.5 mm unchanged (1.093 / 1.158). A long
+#: stretch slowed the time law over steps where the pair never came close after smoothing.
+_NEAR_MM = 0.0
 #: Factor by which a colliding robot's window (then tolerance) shrinks per retry.
 _TIGHTEN = 2.0
 

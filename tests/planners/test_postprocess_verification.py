@@ -6,6 +6,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+import rfp_twin.planners.postprocess.verification as verification
+
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.postprocess.verification import (ClearanceLedger, narrow_locally, repair,
                                                         subset_trajectory, verify_neighbours)
@@ -79,8 +81,10 @@ def test_local_repair_narrows_around_the_collision_and_keeps_the_tolerances():
     dirty, touched, merges, tightened = repair([hit(10, 11)], labels, ids, window, tol, pre,
                                                reg, span)
     assert dirty == {0} and touched == {0, 1} and tightened == 2 and merges == 0
-    assert reg.regions[0] == reg.regions[1] == [[(949.5 - 200.0, 1100.0 + 200.0)]]
-    assert reg.regions[2] == [] and spans == [0.0, 0.5, 0.0, 0.5]
+    near = verification._NEAR_MM              # the stretch: the pair within this in the plan
+    u0, u1 = span(None, near)
+    assert reg.regions[0] == reg.regions[1] == [[(u0 - 200.0, u1 + 200.0)]]
+    assert reg.regions[2] == [] and spans[:4] == [0.0, near, 0.0, near]
     np.testing.assert_array_equal(window, 200.0)
     np.testing.assert_array_equal(tol, 0.1)
     np.testing.assert_array_equal(pre, 0.2)
