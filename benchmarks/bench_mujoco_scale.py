@@ -61,6 +61,7 @@ def one(preset: str, name: str, args) -> dict:
     from rfp_twin.models.errors import SpecError
     from rfp_twin.models.layout import layout_by_name
     from rfp_twin.models.mjcf import ModelOptions
+    from rfp_twin.models.mjcf.tiled_twin import TiledTwin, model_tiles
     from rfp_twin.models.robot import load_spec
     from rfp_twin.models.trajectory import Trajectory
     from rfp_twin.twin.cli.run import build_with_progress
@@ -79,8 +80,8 @@ def one(preset: str, name: str, args) -> dict:
         out.update(build_s=time.perf_counter() - t0, refused=str(exc), peak_build_mb=peak_mb())
         return out
     out["build_s"] = time.perf_counter() - t0
-    models = [t.twin.model for t in twin.tiles] if hasattr(twin, "tiles") else [twin.model]
-    out["tiles"] = len(models) if hasattr(twin, "tiles") else 0
+    models = [t.twin.model for t in model_tiles(twin)]
+    out["tiles"] = len(twin.tiles) if isinstance(twin, TiledTwin) else 0
     out["arena_mb"] = sum(m.narena for m in models) / 2**20
     out["peak_build_mb"] = peak_mb()
 

@@ -12,6 +12,7 @@ import mujoco
 import numpy as np
 
 from rfp_twin.models.mjcf import TwinModel
+from rfp_twin.models.mjcf.tiled_twin import model_tiles
 
 
 @dataclass
@@ -94,12 +95,9 @@ def iter_link_poses(twin, angles: np.ndarray, trace_cols: list[int]):
     """Yield ``(robots, LinkPoses)`` part by part at ``angles`` (T, n, 2) deg: all robots
     of a :class:`TwinModel` at once, or each tile's own robots of a tiled twin (so that
     only one tile's poses are held at a time). ``robots`` (r,) are layout robot indices."""
-    if not hasattr(twin, "tiles"):
-        yield np.arange(twin.n_robots), model_poses(twin, angles, trace_cols)
-        return
-    for t in twin.tiles:
+    for t in model_tiles(twin):
         local = model_poses(t.twin, angles[:, t.robots], trace_cols)
-        yield t.robots[t.owned], _rows(local, np.flatnonzero(t.owned))
+        yield t.robots[t.owned], local if t.owned.all() else _rows(local, np.flatnonzero(t.owned))
 
 
 def link_poses(twin, angles: np.ndarray, trace_cols: list[int]) -> LinkPoses:
@@ -118,9 +116,8 @@ def link_poses(twin, angles: np.ndarray, trace_cols: list[int]) -> LinkPoses:
 def model_parts(twin):
     """(model, data at rest, index) of each MuJoCo model of the twin (one, or one per tile),
     for the static parts (obstacles, plate)."""
-    models = [twin] if not hasattr(twin, "tiles") else [t.twin for t in twin.tiles]
     out = []
-    for tw in models:
+    for tw in (t.twin for t in model_tiles(twin)):
         d = mujoco.MjData(tw.model)
         mujoco.mj_kinematics(tw.model, d)
         out.append((tw.model, d, tw.index))

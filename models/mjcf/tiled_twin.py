@@ -92,9 +92,14 @@ class TiledTwin:
             out[tile.robots[tile.owned]] = np.asarray(arr)[tile.owned]
         return out
 
-    def neighbour_pairs(self) -> np.ndarray:
-        """(p, 2) robot index pairs whose parts can touch (as :meth:`TwinModel.neighbour_pairs`)."""
-        return self.layout.neighbour_pairs(2.0 * self.plan.reach_mm)
+
+def model_tiles(twin: TwinModel | TiledTwin) -> list[Tile]:
+    """The MuJoCo models of a twin as tiles: a tiled twin's own, or one tile that owns
+    every robot of a :class:`TwinModel` (callers then treat both alike)."""
+    if isinstance(twin, TiledTwin):
+        return twin.tiles
+    n = twin.n_robots
+    return [Tile(twin, np.arange(n), np.ones(n, dtype=bool))]
 
 
 def sub_layout(layout: Layout, rows: np.ndarray, name: str) -> Layout:

@@ -13,6 +13,7 @@ from typing import Callable
 import numpy as np
 
 from rfp_twin.models.mjcf import TwinModel, build_model
+from rfp_twin.models.mjcf.tiled_twin import TiledTwin
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.render.backend import RenderError, require_backend
 from rfp_twin.twin.render.frames import FrameRenderer
@@ -42,7 +43,7 @@ def make_renderer(twin: TwinModel, settings: RenderSettings):
     (:class:`rfp_twin.twin.render.tile_closeup.TileCloseupRenderer`), and where
     FrameRenderer is the choice on a wide camera, from a one-model copy of up to
     :data:`ONE_MODEL_RENDER_MAX` robots (larger: MergedFrameRenderer with full meshes)."""
-    tiled = hasattr(twin, "tiles")
+    tiled = isinstance(twin, TiledTwin)
     if tiled and not settings.wide:
         from rfp_twin.twin.render.tile_closeup import TileCloseupRenderer
 

@@ -21,6 +21,7 @@ from rfp_twin.models.errors import TrajectoryError
 from rfp_twin.models.kinematics import forward, forward_fiber
 from rfp_twin.models.layout.columns import FIBER_COLUMNS, FIBERS, robot_column, robot_fibers
 from rfp_twin.models.mjcf import TwinModel
+from rfp_twin.models.mjcf.tiled_twin import TiledTwin
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.sim.faults import fault_effects
 
@@ -29,7 +30,7 @@ def feedforward_gains(twin: TwinModel) -> np.ndarray:
     """(n, 2) velocity feed-forward gain ``kv / kp`` of each servo, s (0 where kp = 0).
     A tiled twin (:class:`rfp_twin.models.mjcf.tiled_twin.TiledTwin`): each robot's from the
     tile that owns it."""
-    if hasattr(twin, "tiles"):
+    if isinstance(twin, TiledTwin):
         return twin.gather([feedforward_gains(t.twin) for t in twin.tiles])
     m = twin.model
     act = twin.index.actuator

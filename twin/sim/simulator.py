@@ -21,6 +21,7 @@ import numpy as np
 
 from rfp_twin.models.errors import TrajectoryError
 from rfp_twin.models.mjcf import TwinModel, collect_mujoco_warnings
+from rfp_twin.models.mjcf.tiled_twin import TiledTwin
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.sim.contacts import ContactRecorder
 from rfp_twin.twin.sim.control import Commands, TrackingError, fiber_error_mm
@@ -94,6 +95,34 @@ class _RunSetup:
         self.faults = list(faults)
         self.commands = Commands(twin, trajectory, self.faults, self.settings.feedforward)
 
+    def _report(self, q_end: np.ndarray, t_end: float, wall: float, tracking: TrackingError,
+                samples: tuple | None, contacts, warnings: dict, messages) -> SimReport:
+        """The :class:`SimReport` of a finished run: final angles ``q_end`` (n, 2) deg at
+        ``t_end`` s against the nominal end, the stepping loop's ``wall`` s, the tracking
+        error, the sampled ``(times, angles, nominal)`` lists (None: no record), the
+        :class:`ContactLog`, MuJoCo's warning counts and messages."""
+        ref_end = self.nominal(np.array([t_end]))[0]
+        final = q_end - ref_end
+        record_obj = None
+        if samples is not None and samples[0]:
+            rec_t, rec_q, rec_ref = samples
+            angles = np.array(rec_q)
+            record_obj = SimRecord(np.array(rec_t), angles,
+                                   angles + self.commands.effects.offset[None], np.array(rec_ref))
+        return SimReport(
+            robot_ids=np.asarray(self.twin.layout.robot_ids, dtype=np.int64).copy(),
+            sim_s=float(t_end), trajectory_s=self.trajectory.duration, timestep_s=self.dt,
+            n_steps=self.n_steps, wall_s=wall, max_error_deg=tracking.max_deg,
+            rms_error_deg=tracking.rms_deg(self.n_steps), final_error_deg=final,
+            final_fiber_error_mm=fiber_error_mm(self.twin, q_end, ref_end),
+            reached=np.all(np.abs(final) <= self.settings.reached_tol_deg, axis=1),
+            contacts=contacts, faults=[f.describe() for f in self.faults], warnings=warnings,
+            warning_messages=list(messages), record=record_obj)
+
+    def nominal(self, times: np.ndarray) -> np.ndarray:
+        """(len(times), n, 2) nominal angles (the trajectory; fold for others), deg."""
+        return self.commands.nominal(times)
+
     def _steps(self, chunk: int):
         """Yield ``(k, servo targets (2n,) rad, nominal angles (n, 2) deg)`` for every
         physics step k of the run; the commands are computed ``chunk`` steps at a time."""
@@ -136,10 +165,6 @@ class Simulator(_RunSetup):
         self._act_flat = _as_slice(idx.actuator.ravel())
         self._qpos_flat = _as_slice(idx.qpos_adr.ravel())
 
-    def nominal(self, times: np.ndarray) -> np.ndarray:
-        """(len(times), n, 2) nominal angles (the trajectory; fold for others), deg."""
-        return self.commands.nominal(times)
-
     def commanded(self, times: np.ndarray) -> np.ndarray:
         """(len(times), n, 2) angles the servos are asked to reach (faults applied), deg:
         true-angle targets, i.e. already corrected for encoder offsets."""
@@ -180,23 +205,9 @@ class Simulator(_RunSetup):
                 if d.ncon:  # contacts of the state at t_now
                     contacts.add(d, t_now)
         wall = time.perf_counter() - wall0
-        # final state against the nominal end
-        q_end = twin.angles(d)
-        ref_end = self.nominal(np.array([d.time]))[0]
-        final = q_end - ref_end
-        record_obj = None
-        if record and rec_t:
-            angles = np.array(rec_q)
-            record_obj = SimRecord(np.array(rec_t), angles,
-                                   angles + self.commands.effects.offset[None], np.array(rec_ref))
-        return SimReport(
-            robot_ids=twin.index.robot_ids.copy(), sim_s=float(d.time),
-            trajectory_s=self.trajectory.duration, timestep_s=self.dt, n_steps=self.n_steps,
-            wall_s=wall, max_error_deg=tracking.max_deg, rms_error_deg=tracking.rms_deg(self.n_steps),
-            final_error_deg=final, final_fiber_error_mm=fiber_error_mm(twin, q_end, ref_end),
-            reached=np.all(np.abs(final) <= s.reached_tol_deg, axis=1),
-            contacts=contacts.log(), faults=[f.describe() for f in self.faults],
-            warnings=mujoco_warnings(d), warning_messages=list(messages), record=record_obj)
+        return self._report(twin.angles(d), float(d.time), wall, tracking,
+                            (rec_t, rec_q, rec_ref) if record else None, contacts.log(),
+                            mujoco_warnings(d), messages)
 
 
 def simulate(twin: TwinModel, trajectory: Trajectory, faults=(), settings: SimSettings | None = None,
@@ -204,7 +215,7 @@ def simulate(twin: TwinModel, trajectory: Trajectory, faults=(), settings: SimSe
     """Simulate ``trajectory`` on ``twin`` (see :class:`Simulator`); a tiled twin
     (:class:`rfp_twin.models.mjcf.tiled_twin.TiledTwin`) runs in its tiles
     (:class:`rfp_twin.twin.sim.tiled.TiledSimulator`, callback ``(t, None, None)``)."""
-    if hasattr(twin, "tiles"):
+    if isinstance(twin, TiledTwin):
         from rfp_twin.twin.sim.tiled import TiledSimulator
 
         return TiledSimulator(twin, trajectory, faults, settings).run(callback, record)

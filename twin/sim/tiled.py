@@ -33,8 +33,8 @@ from rfp_twin.models.mjcf import collect_mujoco_warnings
 from rfp_twin.models.mjcf.tiled_twin import Tile, TiledTwin
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.sim.contacts import ContactLog, ContactRecorder
-from rfp_twin.twin.sim.control import TrackingError, fiber_error_mm
-from rfp_twin.twin.sim.report import SimRecord, SimReport
+from rfp_twin.twin.sim.control import TrackingError
+from rfp_twin.twin.sim.report import SimReport
 from rfp_twin.twin.sim.simulator import _RunSetup, mujoco_warnings, step_count
 
 #: Largest number of values in one chunk of servo targets or nominal angles (steps x 2n):
@@ -113,10 +113,6 @@ class TiledSimulator(_RunSetup):
         self.threads = max(1, min(int(threads or cpus or 1), len(self.tiles)))
         self._groups = _balanced_groups([t.tile.robots.size for t in self.tiles], self.threads)
 
-    def nominal(self, times: np.ndarray) -> np.ndarray:
-        """(len(times), n, 2) nominal angles, deg."""
-        return self.commands.nominal(times)
-
     def reset(self) -> tuple[np.ndarray, np.ndarray]:
         """Every robot at its commanded start, at rest: returns the whole-array (q, v)
         (2n,) rad, rad/s."""
@@ -167,24 +163,10 @@ class TiledSimulator(_RunSetup):
             if pool is not None:
                 pool.shutdown()
         wall = time.perf_counter() - wall0
-        t_end = self.n_steps * self.dt
-        q_end = np.degrees(q).reshape(n, 2)
-        ref_end = self.nominal(np.array([t_end]))[0]
-        final = q_end - ref_end
-        record_obj = None
-        if record and rec_t:
-            angles = np.array(rec_q)
-            record_obj = SimRecord(np.array(rec_t), angles,
-                                   angles + self.commands.effects.offset[None], np.array(rec_ref))
-        return SimReport(
-            robot_ids=self.twin.robot_ids.copy(), sim_s=float(t_end),
-            trajectory_s=self.trajectory.duration, timestep_s=self.dt, n_steps=self.n_steps,
-            wall_s=wall, max_error_deg=tracking.max_deg, rms_error_deg=tracking.rms_deg(self.n_steps),
-            final_error_deg=final, final_fiber_error_mm=fiber_error_mm(self.twin, q_end, ref_end),
-            reached=np.all(np.abs(final) <= s.reached_tol_deg, axis=1),
-            contacts=_merged_log([t.contacts.log() for t in tiles]),
-            faults=[f.describe() for f in self.faults], warnings=_summed_warnings(tiles),
-            warning_messages=list(messages), record=record_obj)
+        return self._report(np.degrees(q).reshape(n, 2), self.n_steps * self.dt, wall, tracking,
+                            (rec_t, rec_q, rec_ref) if record else None,
+                            _merged_log([t.contacts.log() for t in tiles]), _summed_warnings(tiles),
+                            messages)
 
 
 def _merged_log(logs: list[ContactLog]) -> ContactLog:
