@@ -40,6 +40,7 @@ def mujoco_steps(rc, traj, sim_s: float, row: dict) -> None:
     """Build the twin as the CLI does, simulate ``sim_s`` s of ``traj`` and draw frames:
     adds build, simulate (wall s per simulated s), frame (s) and the tile count to ``row``."""
     import rfp_twin.twin.render  # noqa: F401  (first: picks MUJOCO_GL before mujoco)
+    from rfp_twin.models.mjcf.tiled_twin import model_tiles
     from rfp_twin.twin.cli.run import build_with_progress
     from rfp_twin.twin.render import RenderSettings
     from rfp_twin.twin.render.run import make_renderer
@@ -48,7 +49,7 @@ def mujoco_steps(rc, traj, sim_s: float, row: dict) -> None:
     t0 = time.perf_counter()
     twin = build_with_progress(rc.spec, rc.layout)
     row["build"] = time.perf_counter() - t0
-    row["tiles"] = len(getattr(twin, "tiles", [twin]))
+    row["tiles"] = len(model_tiles(twin))
     report = simulate(twin, traj, settings=SimSettings(duration_s=sim_s))
     row["simulate"] = report.wall_s / report.sim_s
     angles = report.record.angles

@@ -82,18 +82,3 @@ def check_body_count(layout_name: str, n_robots: int, n_obstacles: int) -> None:
             f"{most:,} robots) in one model, since MuJoCo's collision driver counts body pairs "
             "in a 32-bit int; simulate a part of the layout")
 
-
-def release_free_memory() -> None:
-    """Hand the C heap's free pages back to the system (glibc ``malloc_trim``; a no-op
-    elsewhere). Building a MuJoCo model leaves ~20 MB of freed but fragmented heap per
-    500-robot tile; a tiled twin of 29,988 robots (59 tiles) would keep ~1.2 GB of it."""
-    import ctypes
-    import ctypes.util
-
-    name = ctypes.util.find_library("c")
-    if not name:
-        return
-    try:
-        ctypes.CDLL(name).malloc_trim(0)
-    except (OSError, AttributeError):
-        pass

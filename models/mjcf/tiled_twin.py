@@ -28,7 +28,6 @@ import numpy as np
 from rfp_twin.models.geometry import RobotGeometry, geometry_for_spec
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.mjcf.build import build_model
-from rfp_twin.models.mjcf.memory import release_free_memory
 from rfp_twin.models.mjcf.options import ModelOptions
 from rfp_twin.models.mjcf.tiles import TILE_ROBOTS, TilePlan, plan_tiles
 from rfp_twin.models.mjcf.twin_model import TwinModel
@@ -155,7 +154,6 @@ def build_tiled(spec: RobotSpec, layout: Layout, geometry: RobotGeometry | None 
         mark_halo(twin, owned)
         twin.mjspec = None          # ~20 MB a tile: a tile model is never exported or rebuilt
         tiles.append(Tile(twin, robots, owned))
-        release_free_memory()
     if progress is not None:
         progress("tiles", plan.n_tiles, plan.n_tiles)
     base_z = geometry.params.focal_z_mm - geometry.params.fiber_z_mm
