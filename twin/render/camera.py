@@ -153,6 +153,18 @@ def lean_sections_for(params, fovy_deg: float, height_px: int, distance_mm: floa
     return int(min(p.circle_sections, max(LEAN_MIN_SECTIONS, n)))
 
 
+def fit_offscreen(m: mujoco.MjModel, settings: RenderSettings) -> None:
+    """Size ``m``'s offscreen buffer for the frame and, for lean renders, turn off
+    multisampling and use few slices for MuJoCo's own round shapes."""
+    m.vis.global_.offwidth = max(int(m.vis.global_.offwidth), settings.width)
+    m.vis.global_.offheight = max(int(m.vis.global_.offheight), settings.height)
+    if settings.lean:
+        m.vis.quality.offsamples = 0
+        m.vis.quality.numslices = 12
+        m.vis.quality.numstacks = 6
+        m.vis.quality.numquads = 1
+
+
 def render_model(twin: TwinModel, settings: RenderSettings) -> TwinModel:
     """The model frames are drawn from: a copy of the twin's own or, for lean renders with
     the ``top`` / ``oblique`` camera where the robots are small in the frame, the same
@@ -187,11 +199,5 @@ def render_model(twin: TwinModel, settings: RenderSettings) -> TwinModel:
         m.cam_pos0[c] = cam_pos
     elif settings.robot_id is not None:
         rt.aim_closeup(int(settings.robot_id))
-    m.vis.global_.offwidth = max(int(m.vis.global_.offwidth), settings.width)
-    m.vis.global_.offheight = max(int(m.vis.global_.offheight), settings.height)
-    if settings.lean:
-        m.vis.quality.offsamples = 0
-        m.vis.quality.numslices = 12
-        m.vis.quality.numstacks = 6
-        m.vis.quality.numquads = 1
+    fit_offscreen(m, settings)
     return rt

@@ -50,7 +50,7 @@ from rfp_twin.models.mjcf.cameras import add_scene, quat_to_mat
 from rfp_twin.models.mjcf.options import RGBA, VISUAL_GROUP
 from rfp_twin.models.robot import RobotSpec
 from rfp_twin.twin.render.backend import RenderError, require_backend
-from rfp_twin.twin.render.camera import lean_sections_for, wide_camera_setup
+from rfp_twin.twin.render.camera import fit_offscreen, lean_sections_for, wide_camera_setup
 from rfp_twin.twin.render.frames import (SCENE_SPARE, OffscreenOwner, lean_scene,
                                          open_offscreen, project_points, state_colours)
 from rfp_twin.twin.render.settings import RenderSettings
@@ -368,13 +368,7 @@ class MergedFrameRenderer(OffscreenOwner):
             self._slot[link, state] = (mid, va, na, nf)
         c = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, self.settings.camera)
         m.cam_pos[c] = m.cam_pos0[c] = cam_pos
-        m.vis.global_.offwidth = max(int(m.vis.global_.offwidth), self.settings.width)
-        m.vis.global_.offheight = max(int(m.vis.global_.offheight), self.settings.height)
-        if self.settings.lean:
-            m.vis.quality.offsamples = 0
-            m.vis.quality.numslices = 12
-            m.vis.quality.numstacks = 6
-            m.vis.quality.numquads = 1
+        fit_offscreen(m, self.settings)
         return m
 
     def set_angles(self, angles_deg: np.ndarray) -> None:
