@@ -97,8 +97,8 @@ def build_paths(n: int, ev_robot: np.ndarray, ev_step: np.ndarray, ev_angles: np
                 start: np.ndarray, end: np.ndarray, n_steps: int):
     """CSR paths from kernel breakpoints, adding each robot's start and end points.
 
-    The kernel writes breakpoints in step order, so a counting sort by robot keeps each
-    robot's points in time order. Returns path_ptr (n+1,), path_step (m,), path_angles (m, 2).
+    The kernel writes each robot's breakpoints in step order, so a counting sort by robot
+    keeps each robot's points in time order. Returns path_ptr (n+1,), path_step (m,), path_angles (m, 2).
     """
     return _build_paths(n, np.ascontiguousarray(ev_robot, dtype=np.int64),
                         np.ascontiguousarray(ev_step, dtype=np.int64),

@@ -326,6 +326,11 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_le
             moved_at[i] = n_moves
             n_awake += 1
             now_home = abs(na - da) < ANGLE_EPS and abs(nb - db) < ANGLE_EPS
+            if now_home and greedy:
+                # a greedy robot at home never moves again and is never visited: its
+                # arrival is its last breakpoint (without it, interpolation to the plan's
+                # last step would spread its last moves over the steps it waits)
+                n_ev = record(ev, last, i, step + 1, na, nb, 0.0, 0.0, n_ev)
             if now_home and not home[i]:
                 n_left -= 1
             elif home[i] and not now_home:

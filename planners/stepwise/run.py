@@ -8,7 +8,8 @@ thousands of robots with long step limits), a run whose buffers overflow runs ag
 from scratch, with buffers four times larger (the kernel is deterministic for a given
 seed, so the result does not depend on the first size), and the repeated calls are
 counted in its time and ``retries``. The breakpoints come back as a :class:`StepRun`, in the
-kernel's order (step order); :func:`rfp_twin.planners.plan.build_paths` turns them into paths.
+kernel's order (each robot's in step order); :func:`rfp_twin.planners.plan.build_paths` turns
+them into paths.
 
 Units: angles in deg, lengths in mm, time in planner steps (wall time in s).
 """

@@ -43,7 +43,8 @@ def test_breakpoints_rebuild_paths_that_move_one_step_at_a_time(problem):
     movable = np.ones(geom.n_robots, bool)
     run = run_array(geom, targets, fold, movable, greed=1.0, phobia=0.0, seed=0, **kw)
     np.testing.assert_allclose(run.final, fold, atol=ANGLE_EPS)       # this one converges
-    assert np.all(np.diff(run.ev_step) >= 0)                          # step order
+    for i in range(geom.n_robots):                                    # each robot's in step order
+        assert np.all(np.diff(run.ev_step[run.ev_robot == i]) >= 0)
     ptr, steps, angles = build_paths(geom.n_robots, run.ev_robot, run.ev_step, run.ev_angles,
                                      targets, run.final, run.n_steps)
     for i in range(geom.n_robots):
@@ -61,3 +62,25 @@ def test_robots_that_cannot_move_stay(problem):
     run = run_array(geom, targets, fold, movable, greed=0.9, phobia=0.3, seed=1, **kw)
     np.testing.assert_array_equal(run.final[~movable], targets[~movable])
     assert not np.isin(run.ev_robot, np.flatnonzero(~movable)).any()    # no breakpoints
+
+
+@pytest.mark.parametrize("greed,phobia", [(1.0, 0.0), (0.9, 0.3)])
+def test_paths_are_the_kernel_states_at_every_step(problem, greed, phobia):
+    """Linear interpolation of the breakpoints is the kernel's own state at each step: a
+    run stopped after k steps (the kernel is deterministic for a seed) stands where the
+    full run's paths put it at step k, also for a robot that reached its destination and
+    waits there (its arrival is a breakpoint, not spread over the wait)."""
+    geom, targets, fold, kw = problem
+    movable = np.ones(geom.n_robots, bool)
+    full = run_array(geom, targets, fold, movable, greed=greed, phobia=phobia, seed=2, **kw)
+    ptr, steps, angles = build_paths(geom.n_robots, full.ev_robot, full.ev_step, full.ev_angles,
+                                     targets, full.final, full.n_steps)
+    arrived = 0
+    for k in np.linspace(1, full.n_steps - 1, 9).astype(int):
+        part = run_array(geom, targets, fold, movable, greed=greed, phobia=phobia, seed=2,
+                         **{**kw, "max_steps": int(k)})
+        at_k = np.array([[np.interp(k, steps[ptr[i]:ptr[i + 1]], angles[ptr[i]:ptr[i + 1], ax])
+                          for ax in (0, 1)] for i in range(geom.n_robots)])
+        np.testing.assert_allclose(at_k, part.final, atol=1e-9)
+        arrived += int(np.sum(np.all(np.abs(part.final - fold) < ANGLE_EPS, axis=1)))
+    assert arrived > 0          # some robots wait at their destination before the end
