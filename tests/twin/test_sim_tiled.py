@@ -80,3 +80,44 @@ def test_short_command_chunks_change_nothing():
     b = TiledSimulator(tiled, traj, settings=SimSettings(settle_s=0.1, chunk_s=0.012)).run()
     assert np.array_equal(a.record.angles, b.record.angles)
     assert all(t.twin.mjspec is None for t in tiled.tiles)     # tiles keep no MjSpec
+
+
+def _same_run(a, b) -> None:
+    assert np.array_equal(a.record.angles, b.record.angles)
+    assert np.array_equal(a.max_error_deg, b.max_error_deg)
+    assert np.array_equal(a.final_error_deg, b.final_error_deg)
+    for f in ("time_s", "robot_a", "robot_b", "fiducial", "depth_mm"):
+        assert np.array_equal(getattr(a.contacts, f), getattr(b.contacts, f))
+    assert a.warnings == b.warnings
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_blocks_without_contact_move_every_robot_as_lock_step(threads):
+    """Tiles stepping blocks alone (halos synchronised at the block's end) give the
+    lock-step run bit for bit when no robot touches another."""
+    lay = layout_by_name("raft:4", RAFT.pitch_mm)
+    n = lay.n_robots
+    traj = swings(lay, RAFT.fold_deg, np.linspace(-25, 25, n), np.full(n, -15.0))
+    tiled_twin = build_tiled(RAFT, lay, max_robots=64)
+    settings = SimSettings(settle_s=0.1)
+    lock = TiledSimulator(tiled_twin, traj, settings=settings, threads=threads, block_steps=1)
+    blocks = TiledSimulator(tiled_twin, traj, settings=settings, threads=threads, block_steps=8)
+    a, b = lock.run(), blocks.run()
+    assert len(a.contacts) == 0 and blocks.rollbacks == 0 and blocks.blocks >= 10
+    _same_run(a, b)
+    one = simulate(build_model(RAFT, lay), traj, settings=settings)
+    assert np.abs(one.record.angles - b.record.angles).max() < 1e-9
+
+
+def test_a_block_that_meets_a_contact_is_redone_in_lock_step():
+    lay = layout_by_name("raft:4", RAFT.pitch_mm)
+    rng = np.random.default_rng(1)
+    traj = swings(lay, RAFT.fold_deg, rng.uniform(-180, 180, lay.n_robots),
+                  rng.uniform(-170, 0, lay.n_robots))
+    tiled_twin = build_tiled(RAFT, lay, max_robots=64)
+    settings = SimSettings(settle_s=0.1)
+    lock = TiledSimulator(tiled_twin, traj, settings=settings, block_steps=1)
+    blocks = TiledSimulator(tiled_twin, traj, settings=settings, block_steps=8)
+    a, b = lock.run(), blocks.run()
+    assert blocks.rollbacks >= 1 and len(a.contacts) > 100
+    _same_run(a, b)

@@ -24,6 +24,7 @@ from rfp_twin.models.mjcf import TwinModel
 from rfp_twin.models.mjcf.tiled_twin import TiledTwin
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.sim.faults import fault_effects
+from rfp_twin.twin.sim.sampling import TrajectoryTable
 
 
 def feedforward_gains(twin: TwinModel) -> np.ndarray:
@@ -65,6 +66,7 @@ class Commands:
         self.ff = gains if feedforward else np.zeros_like(gains)
         self._ff_flat = self.ff.ravel()
         self._fold = np.asarray(twin.spec.fold_deg, float)
+        self._table = TrajectoryTable(trajectory, self._traj_index)
 
     def nominal(self, times: np.ndarray) -> np.ndarray:
         """(len(times), n, 2) nominal angles (the trajectory; fold for others), deg."""
@@ -85,14 +87,11 @@ class Commands:
     def _sample(self, times: np.ndarray, warped: bool) -> np.ndarray:
         out = np.empty((times.size, self.n_robots, 2))
         out[:] = self._fold
-        traj = self.trajectory
         fx = self.effects
-        for j, k in enumerate(self._traj_index):
-            tau = times
-            if warped:
-                tau = np.minimum(times, fx.stuck_at[k]) * fx.warp_scale[k]
-            for ax in range(2):
-                out[:, k, ax] = np.interp(tau, traj.times[ax][j], traj.angles[ax][j])
+        if warped:
+            self._table.sample_into(out, times, fx.stuck_at, fx.warp_scale)
+        else:
+            self._table.sample_into(out, times)
         return out
 
 
