@@ -16,6 +16,7 @@ targets (T, 2n) rad in the model's actuator order (robot-major). Times in s.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from rfp_twin.models.errors import TrajectoryError
 from rfp_twin.models.kinematics import forward, forward_fiber
@@ -81,8 +82,11 @@ class Commands:
         """(len(t_grid) - 2, 2n) actuator targets, rad, for the physics steps starting at
         ``t_grid[:-2]`` (a grid of step ``dt`` s): where to be at the end of the step
         (``t_grid[1:-1]``), plus the velocity feed-forward over the next step."""
-        cmd = np.radians(self.commanded(t_grid)).reshape(t_grid.size, -1)
-        return cmd[1:-1] + self._ff_flat * (cmd[2:] - cmd[1:-1]) / dt
+        t_grid = np.asarray(t_grid, float)
+        raw = self._sample(t_grid, warped=True).reshape(t_grid.size, -1)   # deg, before offsets
+        out = np.empty((t_grid.size - 2, raw.shape[1]))
+        _targets(raw, self.effects.offset.ravel(), self._ff_flat, float(dt), out)
+        return out
 
     def _sample(self, times: np.ndarray, warped: bool) -> np.ndarray:
         out = np.empty((times.size, self.n_robots, 2))
@@ -93,6 +97,19 @@ class Commands:
         else:
             self._table.sample_into(out, times)
         return out
+
+
+@njit(cache=True)
+def _targets(raw, offset, ff, dt, out):
+    """Servo targets (T - 2, 2n) rad from the commanded angles ``raw`` (T, 2n) deg before
+    the encoder offsets ``offset`` (2n,) deg: ``c[r + 1] + ff (c[r + 2] - c[r + 1]) / dt``
+    with ``c = radians(raw - offset)`` (:meth:`Commands.servo_targets` in one pass)."""
+    rad = np.pi / 180.0
+    for r in range(out.shape[0]):
+        for c in range(out.shape[1]):
+            now = (raw[r + 1, c] - offset[c]) * rad
+            nxt = (raw[r + 2, c] - offset[c]) * rad
+            out[r, c] = now + ff[c] * (nxt - now) / dt
 
 
 class TrackingError:
