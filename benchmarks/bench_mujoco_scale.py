@@ -5,6 +5,7 @@ Run from the repository root::
 
     .venv/bin/python benchmarks/bench_mujoco_scale.py [--huge] [--sdss] [--no-record]
         [--sim-s 1.0] [--timestep 0.004] [--frames 5] [--only raft:8 ...]
+        [--tile-robots N] [--repeat K]
 
 Each array runs in its own process (so that its peak resident memory is its own):
 preset ``raft-6p2`` on ``raft:8`` (504 robots), ``raft:32`` (2,016) and ``raft:204``
@@ -75,7 +76,7 @@ def one(preset: str, name: str, args) -> dict:
     t0 = time.perf_counter()
     try:
         twin = build_with_progress(spec, lay, ModelOptions(timestep_s=args.timestep),
-                                   0 if args.one_model else None)
+                                   0 if args.one_model else args.tile_robots)
     except SpecError as exc:
         out.update(build_s=time.perf_counter() - t0, refused=str(exc), peak_build_mb=peak_mb())
         return out
@@ -134,6 +135,10 @@ def main() -> int:
     ap.add_argument("--only", nargs="*", help="layouts to run (names as in the table)")
     ap.add_argument("--one-model", action="store_true",
                     help="one MuJoCo model of the whole array (no tiles)")
+    ap.add_argument("--tile-robots", type=int, default=None,
+                    help="robots a tile owns at most (default: the CLI's, TILE_ROBOTS)")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="runs of each array (fresh processes); the table shows each")
     ap.add_argument("--one", nargs=2, metavar=("PRESET", "LAYOUT"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.one:
@@ -146,13 +151,15 @@ def main() -> int:
     print(f"machine: {machine_info('mujoco', 'rerun')}")
     print(f"command: {command_line()}")
     rows = []
-    for preset, name in runs:
+    for preset, name in [r for r in runs for _ in range(max(1, args.repeat))]:
         cmd = [sys.executable, __file__, "--one", preset, name, "--sim-s", str(args.sim_s),
                "--timestep", str(args.timestep), "--frames", str(args.frames)]
         if not args.record:
             cmd.append("--no-record")
         if args.one_model:
             cmd.append("--one-model")
+        if args.tile_robots is not None:
+            cmd += ["--tile-robots", str(args.tile_robots)]
         t = time.perf_counter()
         r = subprocess.run(cmd, capture_output=True, text=True, env=os.environ.copy())
         lines = [ln for ln in r.stdout.splitlines() if ln.startswith("RESULT ")]
