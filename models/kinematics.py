@@ -118,10 +118,18 @@ def sample_patrol_zone(rng: np.random.Generator, n: int, l_alpha: float, l_beta:
     r_out = l_alpha + l_beta
     r = np.sqrt(rng.uniform(r_in * r_in, r_out * r_out, size=n))
     # keep off the singular rim where acos loses precision
-    r = np.clip(r, r_in + 1e-9, r_out - 1e-9)
+    np.clip(r, r_in + 1e-9, r_out - 1e-9, out=r)
     phi = rng.uniform(0.0, 2.0 * np.pi, size=n)
-    xy = np.column_stack([r * np.cos(phi), r * np.sin(phi)])
-    return inverse(np.zeros_like(xy), xy, l_alpha, l_beta, right_arm)
+    # the arithmetic of inverse(zeros, xy, ...) without its (n, 2) temporaries (large draws:
+    # 256 candidates a robot for 30,000 robots are 7.7M rows)
+    xy = np.empty((n, 2))
+    np.multiply(r, np.cos(phi), out=xy[:, 0])
+    np.multiply(r, np.sin(phi), out=xy[:, 1])
+    del r, phi
+    out = np.empty((n, 2))
+    _inverse_kernel(xy, np.broadcast_to(np.float64(l_alpha), (n,)),
+                    np.broadcast_to(np.float64(l_beta), (n,)), right_arm, out)
+    return out
 
 
 def _at(error: TargetError, index: int) -> TargetError:

@@ -156,9 +156,11 @@ def _patrol_sampler(geom):
     (a spec with a narrower beta range, or encoder offsets that shift it) is drawn again.
     """
     spec = geom.spec
+    def _uniform_draw(rng, rows):
+        return sample_patrol_zone(rng, rows.size, spec.alpha_length_mm, spec.beta_length_mm)
+
     if not any(c in geom.layout.extra for c in FIBER_COLUMNS["metrology"]) and geom.uniform:
-        def draw(rng, rows):
-            return sample_patrol_zone(rng, rows.size, spec.alpha_length_mm, spec.beta_length_mm)
+        draw = _uniform_draw
     else:
         met = robot_fibers(geom.layout, {"metrology": (spec.beta_length_mm, 0.0)})[:, 0]
         length, _ = fiber_polar(met)
@@ -174,15 +176,22 @@ def _patrol_sampler(geom):
             return inverse_fiber(np.zeros_like(xy), xy, la_r, met[rows])
 
     def sample(rng, robots, k):
-        rows = np.repeat(robots, k)
-        out, inside = fit_to_limits(draw(rng, rows), geom.limits[rows])
+        # k draws of each robot, fitted with its limits broadcast (not repeated k times)
+        uniform_draw = draw is _uniform_draw
+        rows = None if uniform_draw else np.repeat(robots, k)
+        first = draw(rng, np.empty(robots.size * k) if uniform_draw else rows)
+        out, inside = fit_to_limits(first.reshape(robots.size, k, 2),
+                                    geom.limits[robots][:, None, :])
+        del first
+        out, inside = out.reshape(-1, 2), inside.reshape(-1)
         for _ in range(MAX_LIMIT_REDRAWS):
             if inside.all():
                 return out.reshape(robots.size, k, 2)
             again = np.flatnonzero(~inside)
-            out[again], inside[again] = fit_to_limits(draw(rng, rows[again]),
-                                                      geom.limits[rows[again]])
-        bad = int(rows[np.flatnonzero(~inside)[0]])
+            rows_again = robots[again // k]
+            out[again], inside[again] = fit_to_limits(draw(rng, rows_again),
+                                                      geom.limits[rows_again])
+        bad = int(robots[np.flatnonzero(~inside)[0] // k])
         raise TargetError(f"robot {int(geom.robot_ids[bad])}: no random target within its "
                           f"travel range {geom.limits[bad].tolist()} deg in "
                           f"{MAX_LIMIT_REDRAWS} redraws")

@@ -239,12 +239,16 @@ def fit_to_limits(angles: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, n
     :func:`robot_joint_limits`. Returns ``(fitted, inside)``: alpha shifted by a whole
     number of turns to the lowest value >= ``alpha_lo`` (the same arm pose), beta
     unchanged; ``inside`` (n,) bool where the fitted row is within both ranges (a beta
-    outside its range cannot be fixed: that pose is out of the robot's reach)."""
-    a = np.array(angles, dtype=np.float64, copy=True).reshape(-1, 2)
-    lo = limits[:, 0]
-    a[:, 0] = lo + np.mod(a[:, 0] - lo, 360.0)
-    inside = ((a[:, 0] <= limits[:, 1]) & (a[:, 1] >= limits[:, 2])
-              & (a[:, 1] <= limits[:, 3]))
+    outside its range cannot be fixed: that pose is out of the robot's reach).
+    More dimensions broadcast: angles (..., 2) with limits (..., 4), e.g. (r, k, 2) draws
+    of r robots with their limits as (r, 1, 4); ``inside`` is then (..., )."""
+    a = np.array(angles, dtype=np.float64, copy=True)
+    if a.ndim < 2:
+        a = a.reshape(-1, 2)
+    lo = limits[..., 0]
+    a[..., 0] = lo + np.mod(a[..., 0] - lo, 360.0)
+    inside = ((a[..., 0] <= limits[..., 1]) & (a[..., 1] >= limits[..., 2])
+              & (a[..., 1] <= limits[..., 3]))
     return a, inside
 
 

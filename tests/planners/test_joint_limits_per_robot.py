@@ -131,3 +131,15 @@ def test_postprocess_refuses_a_plan_outside_the_robots_range():
         postprocess(plan, shifted, verifier=check_trajectory)
     traj, _ = postprocess(plan, nominal, verifier=check_trajectory)     # legal for the spec
     assert traj.n_robots == 2
+
+
+def test_fit_to_limits_broadcasts_one_robots_limits_over_its_draws():
+    """(r, k, 2) draws with (r, 1, 4) limits fit exactly as the rows repeated k times."""
+    rng = np.random.default_rng(0)
+    lim = np.column_stack([rng.uniform(-30, 10, 5), rng.uniform(340, 380, 5),
+                           rng.uniform(0, 20, 5), rng.uniform(150, 200, 5)])
+    draws = np.column_stack([rng.uniform(-400, 800, 5 * 7), rng.uniform(-10, 210, 5 * 7)])
+    flat, ok_flat = fit_to_limits(draws, np.repeat(lim, 7, axis=0))
+    blk, ok_blk = fit_to_limits(draws.reshape(5, 7, 2), lim[:, None, :])
+    assert np.array_equal(flat, blk.reshape(-1, 2)) and np.array_equal(ok_flat, ok_blk.ravel())
+    assert 0 < ok_flat.sum() < ok_flat.size
