@@ -212,10 +212,11 @@ def obstacle_shapes(spec: RobotSpec, layout: Layout, geometry: RobotGeometry,
 
 def add_grid(s: mujoco.MjSpec, spec: RobotSpec, layout: Layout, geometry: RobotGeometry,
              servo: ServoParams, collide_alpha: bool, base_z: float, vis, col,
-             mesh_files: dict | None, progress=None) -> None:
+             mesh_files: dict | None, progress=None, robot_visuals: bool = True) -> None:
     """Add materials, mesh assets, one body tree + two actuators per robot and one body
     per obstacle; robot frames at height ``base_z`` mm (plus each robot's ``z_mm``).
-    ``progress(robots_added)`` is called as the robots are added (in blocks)."""
+    ``progress(robots_added)`` is called as the robots are added (in blocks);
+    ``robot_visuals`` False leaves the robots' visual meshes out (simulation only)."""
     p = geometry.params
     frames = robot_frames(layout, geometry)
     obstacles = obstacle_shapes(spec, layout, geometry, frames.z)
@@ -264,13 +265,15 @@ def add_grid(s: mujoco.MjSpec, spec: RobotSpec, layout: Layout, geometry: RobotG
         base.pos = [x, y, base_z + z]
         if frames.tilted[k]:
             base.quat = list(frames.quat[k])
-        geom = base.add_geom(vis)
-        geom.name = robot_name(rid, "body")
-        geom.meshname = vis_mesh["body"]
-        geom.material = "body"
-        alpha_body = _add_moving_link(base, rid, alpha, servo.armature_kg_mm2, vis, col,
+        if robot_visuals:
+            geom = base.add_geom(vis)
+            geom.name = robot_name(rid, "body")
+            geom.meshname = vis_mesh["body"]
+            geom.material = "body"
+        link_vis = vis if robot_visuals else None
+        alpha_body = _add_moving_link(base, rid, alpha, servo.armature_kg_mm2, link_vis, col,
                                       range_rad=list(np.radians(limits[k, 0:2])))
-        beta_body = _add_moving_link(alpha_body, rid, beta, servo.armature_kg_mm2, vis, col,
+        beta_body = _add_moving_link(alpha_body, rid, beta, servo.armature_kg_mm2, link_vis, col,
                                      pos=[la, *beta.pos[1:]],
                                      range_rad=list(np.radians(limits[k, 2:4])))
         for c, (fname, _, _) in enumerate(p.fibers):
@@ -342,10 +345,11 @@ def _add_moving_link(parent, rid: int, link: _MovingLink, armature: float, vis, 
     joint.range = link.range_rad if range_rad is None else range_rad
     joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
     joint.armature = armature
-    geom = body.add_geom(vis)
-    geom.name = robot_name(rid, f"{link.name}_visual")
-    geom.meshname = link.visual_mesh
-    geom.material = link.name
+    if vis is not None:                       # None: no visual mesh (simulation only)
+        geom = body.add_geom(vis)
+        geom.name = robot_name(rid, f"{link.name}_visual")
+        geom.meshname = link.visual_mesh
+        geom.material = link.name
     for k, mname in enumerate(link.collision_meshes):
         geom = body.add_geom(col)
         geom.name = robot_name(rid, f"{link.name}_c{k}")

@@ -78,7 +78,7 @@ def build_spec(spec: RobotSpec, layout: Layout, geometry: RobotGeometry | None =
     n = layout.n_robots
     step = None if progress is None else (lambda k: progress("robots", k, n))
     add_grid(s, spec, layout, geometry, servo, options.collide_alpha, base_z, vis, col, mesh_files,
-             step)
+             step, robot_visuals=options.robot_visuals)
     add_scene(s, spec, layout, p, base_z, options.closeup_robot, vis)
     return s
 

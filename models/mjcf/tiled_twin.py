@@ -20,7 +20,7 @@ whole layout's (0..n-1); a tile's local robots are in layout order.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -141,6 +141,9 @@ def build_tiled(spec: RobotSpec, layout: Layout, geometry: RobotGeometry | None 
     ``progress("tiles", done, total)`` after each tile."""
     geometry = geometry if geometry is not None else geometry_for_spec(spec)
     options = options if options is not None else ModelOptions()
+    # tiles only simulate: no robot visual meshes (renderers draw tiled twins from models
+    # of their own, twin/render/merged.py and tile_closeup.py)
+    sim_options = replace(options, robot_visuals=False)
     plan = plan_tiles(layout, geometry, spec, max_robots)
     tiles = []
     for t in range(plan.n_tiles):
@@ -148,7 +151,7 @@ def build_tiled(spec: RobotSpec, layout: Layout, geometry: RobotGeometry | None 
             progress("tiles", t, plan.n_tiles)
         rows = plan.rows(layout, t)
         sub = sub_layout(layout, rows, f"{layout.name}#tile{t}")
-        twin = build_model(spec, sub, geometry, options)
+        twin = build_model(spec, sub, geometry, sim_options)
         robots = np.sort(np.concatenate([plan.owned[t], plan.halo[t]])).astype(np.int64)
         owned = np.isin(robots, plan.owned[t])
         mark_halo(twin, owned)

@@ -85,3 +85,27 @@ def test_spec_options_and_name():
                    options=ModelOptions(timestep_s=0.001, integrator="rk4"))
     assert s.modelname == "rfp-twin-desi-hex-7"
     assert s.option.timestep == 0.001 and s.option.integrator == mujoco.mjtIntegrator.mjINT_RK4
+
+
+def test_a_model_without_robot_visuals_moves_the_robots_identically():
+    """``robot_visuals=False`` (the tiles of a tiled twin) drops only the robots' visual
+    meshes: the same collision pieces, fiber sites and obstacles, the same motion."""
+    spec = load_spec("sdss-v")
+    lay = with_fiducials(2, spec.pitch_mm, [0, 7, 12])
+    full = build_model(spec, lay)
+    lean = build_model(spec, lay, options=ModelOptions(robot_visuals=False))
+    n = lay.n_robots
+    for tw, visuals in ((full, 3 * n), (lean, 0)):
+        robot_vis = sum(tw.index.robot_geoms(i, collision=False).size for i in range(n))
+        assert robot_vis == visuals
+    assert sum(full.index.robot_geoms(i, collision=True).size for i in range(n)) == \
+        sum(lean.index.robot_geoms(i, collision=True).size for i in range(n)) > 0
+    assert lean.model.nsite == full.model.nsite and lean.model.nbody == full.model.nbody
+    out = []
+    for tw in (full, lean):
+        d = tw.make_data()
+        d.ctrl[tw.index.actuator[:, 0]] += 0.8
+        d.ctrl[tw.index.actuator[:, 1]] -= 0.5
+        step_clean(tw.model, d, 150)
+        out.append(tw.angles(d))
+    np.testing.assert_array_equal(out[0], out[1])

@@ -94,7 +94,12 @@ def test_tile_models_put_every_robot_and_obstacle_where_the_one_model_does():
             assert d.xpos[tw.index.fiducial_body[k]] == pytest.approx(
                 d_one.xpos[one.index.fiducial_body[fid_rows[int(fid)]]], abs=1e-9)
         seen.update(local[tile.owned].tolist())
+        # tiles only simulate: no robot visual meshes, every collision piece
+        assert not any(tw.index.robot_geoms(i, collision=False).size for i in range(local.size))
+        assert sum(tw.index.robot_geoms(i, collision=True).size for i in range(local.size)) == \
+            sum(one.index.robot_geoms(int(r), collision=True).size for r in local)
     assert seen == set(range(lay.n_robots))
+    assert tiled.options.robot_visuals          # what renderers build from keeps them
 
 
 def test_halo_geoms_meet_owned_geoms_only():

@@ -21,7 +21,7 @@ robot id: :class:`rfp_twin.twin.sim.contacts.ContactRecorder`).
 its servo targets, moves in its tile exactly as its owner moves it. So the tiles first
 step :data:`BLOCK_STEPS` steps each without exchanging anything (a tile's data stays in
 the core's cache for the whole block: a tile step costs ~0.45 ms instead of ~0.7-0.9 ms
-when every step visits all tiles, 12,852 robots in 26 tiles), and the halos are set from
+when every step visits all tiles, 12,852 robots in 26 tiles; one thread-pool call a block), and the halos are set from
 their owners at the block's end. If any tile meets a contact during the block, every tile
 goes back to the block's start (``mj_getState`` / ``mj_setState``, warning counts
 included) and the block is stepped again in lock step with the exchange above; lock step
@@ -54,9 +54,10 @@ from rfp_twin.twin.sim.simulator import _RunSetup, mujoco_warnings, step_count
 CHUNK_VALUES = 8_000_000
 #: Steps each tile takes alone before the halos are synchronised (no contact: see the
 #: module docstring). raft:204, one core, steps of one tile in a row: 1 -> 0.87 ms a
-#: tile step, 2 -> 0.58, 4 -> 0.51, 8 -> 0.50, 16 -> 0.44 (the cache); 8 keeps a
-#: rolled-back block short.
-BLOCK_STEPS = 8
+#: tile step, 2 -> 0.58, 4 -> 0.51, 8 -> 0.50, 16 -> 0.44 (the cache). ``rfp-twin
+#: simulate`` of a raft:204 fold (2.72 s simulated, 2 threads, 5 runs each in turn):
+#: 8 -> 0.32-0.50x real time (median 0.42x), 16 -> 0.42-0.52x (median 0.48x).
+BLOCK_STEPS = 16
 #: Steps run in lock step after a block met a contact, before blocks are tried again.
 LOCKSTEP_AFTER_CONTACT = 64
 _STATE = mujoco.mjtState.mjSTATE_INTEGRATION
