@@ -40,9 +40,9 @@ def test_colliding_swings_give_the_same_motion_and_contacts_as_one_model(threads
                   rng.uniform(-170, 0, lay.n_robots))
     settings = SimSettings(settle_s=0.1)
     one = simulate(build_model(RAFT, lay), traj, settings=settings)
-    tiled_twin = build_tiled(RAFT, lay, max_robots=64)
+    tiled_twin = build_tiled(RAFT, lay, max_robots=32)
     tiled = TiledSimulator(tiled_twin, traj, settings=settings, threads=threads).run()
-    assert len(tiled_twin.tiles) == 4
+    assert len(tiled_twin.tiles) >= 8
     assert np.abs(one.record.angles - tiled.record.angles).max() < 1e-9
     assert len(one.contacts) > 100                      # the swings do collide
     assert pair_set(tiled) == pair_set(one)
