@@ -156,17 +156,18 @@ def _patrol_sampler(geom):
     (a spec with a narrower beta range, or encoder offsets that shift it) is drawn again.
     """
     spec = geom.spec
-    def _uniform_draw(rng, rows):
-        return sample_patrol_zone(rng, rows.size, spec.alpha_length_mm, spec.beta_length_mm)
-
+    # draw(rng, robots, k): k draws of each of ``robots``, (robots.size * k, 2) deg, robot-major
     if not any(c in geom.layout.extra for c in FIBER_COLUMNS["metrology"]) and geom.uniform:
-        draw = _uniform_draw
+        def draw(rng, robots, k=1):
+            return sample_patrol_zone(rng, robots.size * k, spec.alpha_length_mm,
+                                      spec.beta_length_mm)
     else:
         met = robot_fibers(geom.layout, {"metrology": (spec.beta_length_mm, 0.0)})[:, 0]
         length, _ = fiber_polar(met)
         la = geom.alpha_len
 
-        def draw(rng, rows):
+        def draw(rng, robots, k=1):
+            rows = np.repeat(robots, k)
             la_r, lb_r = la[rows], length[rows]
             r_in, r_out = np.abs(la_r - lb_r), la_r + lb_r
             r = np.sqrt(rng.uniform(r_in * r_in, r_out * r_out))
@@ -177,12 +178,8 @@ def _patrol_sampler(geom):
 
     def sample(rng, robots, k):
         # k draws of each robot, fitted with its limits broadcast (not repeated k times)
-        uniform_draw = draw is _uniform_draw
-        rows = None if uniform_draw else np.repeat(robots, k)
-        first = draw(rng, np.empty(robots.size * k) if uniform_draw else rows)
-        out, inside = fit_to_limits(first.reshape(robots.size, k, 2),
+        out, inside = fit_to_limits(draw(rng, robots, k).reshape(robots.size, k, 2),
                                     geom.limits[robots][:, None, :])
-        del first
         out, inside = out.reshape(-1, 2), inside.reshape(-1)
         for _ in range(MAX_LIMIT_REDRAWS):
             if inside.all():
