@@ -149,9 +149,9 @@ class TilePlan:
 def plan_tiles(layout: Layout, geometry: RobotGeometry, spec: RobotSpec,
                max_robots: int = TILE_ROBOTS) -> TilePlan:
     """Split ``layout`` into tiles of at most ``max_robots`` owned robots
-    (:func:`split_robots`, strips of :data:`STRIP_PITCHES` pitches), each with its halo of touching neighbours and the obstacles
-    its robots can reach (a post within ``reach`` of an owned base, a wall whose nearest
-    point is)."""
+    (:func:`split_robots`, strips of :data:`STRIP_PITCHES` pitches), each with its halo of
+    touching neighbours and the obstacles its robots can reach (a post within ``reach`` of
+    an owned base, a wall whose nearest point is)."""
     reach = contact_reach_mm(layout, geometry)
     owned = split_robots(layout.robot_xy, max_robots, STRIP_PITCHES * spec.pitch_mm)
     tile_of = np.empty(layout.n_robots, dtype=np.int64)
