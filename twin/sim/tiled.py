@@ -21,8 +21,9 @@ robot id: :class:`rfp_twin.twin.sim.contacts.ContactRecorder`).
 its servo targets, moves in its tile exactly as its owner moves it. So the tiles first
 step :data:`BLOCK_STEPS` steps each without exchanging anything (a tile's data stays in
 the core's cache for the whole block: a tile step costs ~0.45 ms instead of ~0.7-0.9 ms
-when every step visits all tiles, 12,852 robots in 26 tiles; one thread-pool call a block), and the halos are set from
-their owners at the block's end. If any tile meets a contact during the block, every tile
+when every step visits all tiles, 12,852 robots in 26 square tiles; and one thread-pool
+call a block instead of a step), and the halos are set from their owners at the block's
+end. If any tile meets a contact during the block, every tile
 goes back to the block's start (``mj_getState`` / ``mj_setState``, warning counts
 included) and the block is stepped again in lock step with the exchange above; lock step
 then goes on for :data:`LOCKSTEP_AFTER_CONTACT` steps before the next block is tried. A
