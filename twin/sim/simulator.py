@@ -84,6 +84,31 @@ def _as_slice(ids: np.ndarray):
     return ids
 
 
+class _Samples:
+    """The per-step bookkeeping both simulators share: the tracking error of every step
+    and, every ``record_dt_s``, the true and nominal angles (n, 2) deg and the callback."""
+
+    def __init__(self, n: int, settings: SimSettings, dt: float, callback) -> None:
+        self.tracking = TrackingError(n)
+        self.every = max(1, int(round(settings.record_dt_s / dt))) if settings.record_dt_s > 0 \
+            else 0
+        self.times: list = []
+        self.angles: list = []
+        self.nominal: list = []
+        self.callback = callback
+
+    def add(self, k: int, t: float, angles: np.ndarray, nominal: np.ndarray, *where) -> None:
+        """Step k at time t s: the true ``angles`` and the ``nominal`` ones (n, 2) deg;
+        ``where`` follows ``t`` in the callback ((model, data), or (None, None) for tiles)."""
+        self.tracking.add(angles, nominal)
+        if self.every and k % self.every == 0:
+            self.times.append(t)
+            self.angles.append(angles.copy())
+            self.nominal.append(nominal.copy())
+            if self.callback is not None:
+                self.callback(float(t), *where)
+
+
 class _RunSetup:
     """What both simulators (one model, tiles) set up the same way: the inputs and the
     :class:`Commands` of the run."""
@@ -95,20 +120,21 @@ class _RunSetup:
         self.faults = list(faults)
         self.commands = Commands(twin, trajectory, self.faults, self.settings.feedforward)
 
-    def _report(self, q_end: np.ndarray, t_end: float, wall: float, tracking: TrackingError,
-                samples: tuple | None, contacts, warnings: dict, messages) -> SimReport:
+    def _report(self, q_end: np.ndarray, t_end: float, wall: float, samples: _Samples,
+                record: bool, contacts, warnings: dict, messages) -> SimReport:
         """The :class:`SimReport` of a finished run: final angles ``q_end`` (n, 2) deg at
         ``t_end`` s against the nominal end, the stepping loop's ``wall`` s, the tracking
-        error, the sampled ``(times, angles, nominal)`` lists (None: no record), the
-        :class:`ContactLog`, MuJoCo's warning counts and messages."""
+        error and the sampled angles (kept if ``record``), the :class:`ContactLog`, MuJoCo's
+        warning counts and messages."""
         ref_end = self.nominal(np.array([t_end]))[0]
         final = q_end - ref_end
+        tracking = samples.tracking
         record_obj = None
-        if samples is not None and samples[0]:
-            rec_t, rec_q, rec_ref = samples
-            angles = np.array(rec_q)
-            record_obj = SimRecord(np.array(rec_t), angles,
-                                   angles + self.commands.effects.offset[None], np.array(rec_ref))
+        if record and samples.times:
+            angles = np.array(samples.angles)
+            record_obj = SimRecord(np.array(samples.times), angles,
+                                   angles + self.commands.effects.offset[None],
+                                   np.array(samples.nominal))
         return SimReport(
             robot_ids=np.asarray(self.twin.layout.robot_ids, dtype=np.int64).copy(),
             sim_s=float(t_end), trajectory_s=self.trajectory.duration, timestep_s=self.dt,
@@ -180,34 +206,23 @@ class Simulator(_RunSetup):
         """Simulate; returns the report (with the sampled record if ``record``)."""
         m, d, twin = self.twin.model, self.data, self.twin
         n = twin.n_robots
-        s = self.settings
         self.reset()
-        rec_every = max(1, int(round(s.record_dt_s / self.dt))) if s.record_dt_s > 0 else 0
-        chunk = max(1, int(round(s.chunk_s / self.dt)))
-        rec_t, rec_q, rec_ref = [], [], []
-        tracking = TrackingError(n)
+        chunk = max(1, int(round(self.settings.chunk_s / self.dt)))
+        samples = _Samples(n, self.settings, self.dt, callback)
         contacts = ContactRecorder(twin.index)
         act, qadr = self._act_flat, self._qpos_flat
         wall0 = time.perf_counter()
         with collect_mujoco_warnings() as messages:
             for k, ctrl, nominal in self._steps(chunk):
-                q = np.degrees(d.qpos[qadr]).reshape(n, 2)
-                tracking.add(q, nominal)
-                if rec_every and k % rec_every == 0:
-                    rec_t.append(d.time)
-                    rec_q.append(q.copy())
-                    rec_ref.append(nominal.copy())
-                    if callback is not None:
-                        callback(float(d.time), m, d)
+                samples.add(k, d.time, np.degrees(d.qpos[qadr]).reshape(n, 2), nominal, m, d)
                 d.ctrl[act] = ctrl
                 t_now = d.time
                 mujoco.mj_step(m, d)
                 if d.ncon:  # contacts of the state at t_now
                     contacts.add(d, t_now)
         wall = time.perf_counter() - wall0
-        return self._report(twin.angles(d), float(d.time), wall, tracking,
-                            (rec_t, rec_q, rec_ref) if record else None, contacts.log(),
-                            mujoco_warnings(d), messages)
+        return self._report(twin.angles(d), float(d.time), wall, samples, record,
+                            contacts.log(), mujoco_warnings(d), messages)
 
 
 def simulate(twin: TwinModel, trajectory: Trajectory, faults=(), settings: SimSettings | None = None,

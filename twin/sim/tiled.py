@@ -46,9 +46,8 @@ from rfp_twin.models.mjcf import collect_mujoco_warnings
 from rfp_twin.models.mjcf.tiled_twin import Tile, TiledTwin
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.sim.contacts import ContactLog, ContactRecorder
-from rfp_twin.twin.sim.control import TrackingError
 from rfp_twin.twin.sim.report import SimReport
-from rfp_twin.twin.sim.simulator import _RunSetup, mujoco_warnings, step_count
+from rfp_twin.twin.sim.simulator import _RunSetup, _Samples, mujoco_warnings, step_count
 
 #: Largest number of values in one chunk of servo targets or nominal angles (steps x 2n):
 #: a chunk of ``chunk_s`` is shortened on large arrays so that its arrays stay ~64 MB.
@@ -187,12 +186,9 @@ class TiledSimulator(_RunSetup):
     def run(self, callback=None, record: bool = True) -> SimReport:
         """Simulate; returns the report (with the sampled record if ``record``)."""
         n = self.twin.n_robots
-        s = self.settings
         q, v = self.reset()
-        rec_every = max(1, int(round(s.record_dt_s / self.dt))) if s.record_dt_s > 0 else 0
-        chunk = max(1, min(int(round(s.chunk_s / self.dt)), CHUNK_VALUES // (2 * n)))
-        rec_t, rec_q, rec_ref = [], [], []
-        tracking = TrackingError(n)
+        chunk = max(1, min(int(round(self.settings.chunk_s / self.dt)), CHUNK_VALUES // (2 * n)))
+        samples = _Samples(n, self.settings, self.dt, callback)
         B = self.block_steps
         q_blk, v_blk = np.empty((B, 2 * n)), np.empty((B, 2 * n))
         pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
@@ -200,16 +196,8 @@ class TiledSimulator(_RunSetup):
         self.blocks = self.rollbacks = 0
 
         def account(k, q_k, nominal):
-            """Tracking and record of the state q_k (2n,) rad at the start of step k."""
-            t_now = k * self.dt
-            angles = np.degrees(q_k).reshape(n, 2)
-            tracking.add(angles, nominal)
-            if rec_every and k % rec_every == 0:
-                rec_t.append(t_now)
-                rec_q.append(angles.copy())
-                rec_ref.append(nominal.copy())
-                if callback is not None:
-                    callback(float(t_now), None, None)
+            """Bookkeeping of the state q_k (2n,) rad at the start of step k."""
+            samples.add(k, k * self.dt, np.degrees(q_k).reshape(n, 2), nominal, None, None)
 
         wall0 = time.perf_counter()
         try:
@@ -233,9 +221,8 @@ class TiledSimulator(_RunSetup):
             if pool is not None:
                 pool.shutdown()
         wall = time.perf_counter() - wall0
-        return self._report(np.degrees(q).reshape(n, 2), self.n_steps * self.dt, wall, tracking,
-                            (rec_t, rec_q, rec_ref) if record else None,
-                            _merged_log([t.contacts.log() for t in self.tiles]),
+        return self._report(np.degrees(q).reshape(n, 2), self.n_steps * self.dt, wall, samples,
+                            record, _merged_log([t.contacts.log() for t in self.tiles]),
                             _summed_warnings(self.tiles), messages)
 
     def _map(self, pool, fn) -> None:
