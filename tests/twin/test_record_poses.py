@@ -41,12 +41,18 @@ def test_tiled_poses_equal_the_one_model_poses():
     assert np.isnan(one.tips).any()              # robots without a BOSS / APOGEE fiber
 
 
+def _one_move(lay, t_end: float, alpha: tuple, beta: tuple) -> Trajectory:
+    """Every robot of ``lay`` moves from (alpha[0], beta[0]) to (alpha[1], beta[1]) deg in
+    ``t_end`` s."""
+    n = lay.robot_ids.size
+    t = [[0.0, t_end]] * n
+    return Trajectory.from_breakpoints(lay.robot_ids, t, [list(alpha)] * n, t, [list(beta)] * n)
+
+
 def test_a_tiled_recording_verifies_with_each_robot_and_wall_once(tmp_path):
     lay = layout_by_name("sdss-v-apo", SPEC.pitch_mm)
-    ids = lay.robot_ids
-    n = ids.size
-    traj = Trajectory.from_breakpoints(ids, [[0.0, 0.4]] * n, [[0.0, 30.0]] * n,
-                                       [[0.0, 0.4]] * n, [[180.0, 150.0]] * n)
+    n = lay.robot_ids.size
+    traj = _one_move(lay, 0.4, (0.0, 30.0), (180.0, 150.0))
     tiled = build_tiled(SPEC, lay, max_robots=150)
     report = simulate(tiled, traj, settings=SimSettings(settle_s=0.0))
     out = record_run(tiled, traj, tmp_path / "t.rrd", sim_report=report)
@@ -60,10 +66,8 @@ def test_a_tiled_recording_verifies_with_each_robot_and_wall_once(tmp_path):
 
 def test_record_reports_its_progress_over_every_robot(tmp_path):
     lay = layout_by_name("hex:37", SPEC.pitch_mm)
-    ids = lay.robot_ids
-    n = ids.size
-    traj = Trajectory.from_breakpoints(ids, [[0.0, 0.2]] * n, [[0.0, 10.0]] * n,
-                                       [[0.0, 0.2]] * n, [[180.0, 170.0]] * n)
+    n = lay.robot_ids.size
+    traj = _one_move(lay, 0.2, (0.0, 10.0), (180.0, 170.0))
     calls = []
     record_run(build_tiled(SPEC, lay, max_robots=10), traj, tmp_path / "p.rrd",
                progress=lambda done, total: calls.append((done, total)))
