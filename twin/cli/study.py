@@ -12,7 +12,6 @@ list          the shipped studies
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Optional
 
@@ -21,6 +20,7 @@ from rich.table import Table
 
 from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, EXIT_INTERRUPTED, console,
                                   err_console, fail, one_line_errors)
+from rfp_twin.twin.cores import usable_cores
 
 # rfp_twin.twin.studies (pyarrow, the trial runner) is imported inside the commands: the
 # root app mounts this sub-app, and `rfp-twin plan` must not pay for it.
@@ -34,15 +34,6 @@ study_app = typer.Typer(add_completion=False, no_args_is_help=True,
                              "stored as Parquet, reported as figures.")
 
 
-def _cores_here() -> int:
-    """The cores this process may use: the default LocalCluster's worker count (the
-    count of :func:`rfp_twin.twin.studies.cluster.machine_workers`, not imported here)."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover (not Linux)
-        return max(1, os.cpu_count() or 1)
-
-
 @study_app.command("run")
 @one_line_errors
 def run(
@@ -53,7 +44,7 @@ def run(
                    "via dask-jobqueue: see twin/studies/cluster.py) (default: a LocalCluster "
                    "here)."),
     workers: Optional[int] = typer.Option(
-        None, help=f"LocalCluster worker processes (default: cores here = {_cores_here()})."),
+        None, help=f"LocalCluster worker processes (default: cores here = {usable_cores()})."),
     out: Optional[Path] = typer.Option(None, help="Study folder (default: out/studies/<name>)."),
     trials: Optional[int] = typer.Option(None, help="Trials per grid point instead of the "
                                          "file's (a larger value later extends the same study)."),

@@ -35,7 +35,6 @@ Units: angles in degrees, times in seconds, lengths in mm; n robots in layout or
 """
 from __future__ import annotations
 
-import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -45,6 +44,7 @@ import numpy as np
 from rfp_twin.models.mjcf import collect_mujoco_warnings
 from rfp_twin.models.mjcf.tiled_twin import Tile, TiledTwin
 from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.cores import usable_cores
 from rfp_twin.twin.sim.contacts import ContactLog, ContactRecorder
 from rfp_twin.twin.sim.report import SimReport
 from rfp_twin.twin.sim.simulator import _RunSetup, _Samples, mujoco_warnings, step_count
@@ -166,8 +166,7 @@ class TiledSimulator(_RunSetup):
         self.dt = float(self.tiles[0].model.opt.timestep)
         self.n_steps = step_count(self.settings, trajectory, self.dt)
         self.sim_s = self.n_steps * self.dt
-        cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-        self.threads = max(1, min(int(threads or cpus or 1), len(self.tiles)))
+        self.threads = max(1, min(int(threads or usable_cores()), len(self.tiles)))
         self._groups = _balanced_groups([t.tile.robots.size for t in self.tiles], self.threads)
         self.block_steps = max(1, int(block_steps))
         self.blocks = 0             # blocks the tiles stepped alone

@@ -25,11 +25,11 @@ three tasks per worker thread are in flight, so a killed run loses little work.
 from __future__ import annotations
 
 import itertools
-import os
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from rfp_twin.twin.cores import usable_cores
 from rfp_twin.twin.studies.runner import run_batch
 from rfp_twin.twin.studies.spec import Study, StudyError, Trial
 from rfp_twin.twin.studies.store import write_row
@@ -48,10 +48,7 @@ CONNECT_TIMEOUT_S = 10.0
 
 def machine_workers() -> int:
     """Worker processes of the default LocalCluster: the cores this process may use."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover (not Linux)
-        return max(1, os.cpu_count() or 1)
+    return usable_cores()
 
 
 def batches(trials: list[Trial], batch: str | int) -> list[list[Trial]]:
