@@ -186,6 +186,7 @@ class TiledSimulator(_RunSetup):
         """Simulate; returns the report (with the sampled record if ``record``)."""
         n = self.twin.n_robots
         q, v = self.reset()
+        q_next, v_next = np.empty_like(q), np.empty_like(v)     # lock step: swapped each step
         chunk = max(1, min(int(round(self.settings.chunk_s / self.dt)), CHUNK_VALUES // (2 * n)))
         samples = _Samples(n, self.settings, self.dt, callback)
         B = self.block_steps
@@ -209,13 +210,16 @@ class TiledSimulator(_RunSetup):
                             self.blocks += 1
                             for j, (k, _, nominal) in enumerate(steps):
                                 account(k, q if j == 0 else q_blk[j - 1], nominal)
-                            q, v = q_blk[-1].copy(), v_blk[-1].copy()
+                            np.copyto(q, q_blk[-1])
+                            np.copyto(v, v_blk[-1])
                             continue
                         self.rollbacks += 1
                         lockstep_until = k0 + LOCKSTEP_AFTER_CONTACT
                     for k, c, nominal in steps:
                         account(k, q, nominal)
-                        q, v = self._lockstep(q, v, c, k * self.dt, pool)
+                        self._lockstep(q, v, c, k * self.dt, pool, q_next, v_next)
+                        q, q_next = q_next, q
+                        v, v_next = v_next, v
         finally:
             if pool is not None:
                 pool.shutdown()
@@ -231,17 +235,16 @@ class TiledSimulator(_RunSetup):
         else:
             list(pool.map(fn, self._groups))
 
-    def _lockstep(self, q, v, c, t_now, pool) -> tuple[np.ndarray, np.ndarray]:
-        """One step of every tile with the halo exchange: the next whole-array (q, v)."""
+    def _lockstep(self, q, v, c, t_now, pool, q_next, v_next) -> None:
+        """One step of every tile with the halo exchange from the whole-array (q, v): the
+        next state into (q_next, v_next) (every robot is owned by one tile)."""
         tiles = self.tiles
-        q_next, v_next = np.empty_like(q), np.empty_like(v)
 
         def run_group(g):
             for i in g:
                 tiles[i].step(q, v, c, q_next, v_next, t_now)
 
         self._map(pool, run_group)
-        return q_next, v_next
 
     def _block(self, steps, q, v, q_blk, v_blk, pool) -> bool:
         """The steps of one block, every tile alone (see the module docstring): True with
