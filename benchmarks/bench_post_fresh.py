@@ -63,6 +63,8 @@ def main() -> int:
     ap.add_argument("--algorithms", nargs="+", default=["greedy", "markov"])
     ap.add_argument("--md-out", default=None)
     args = ap.parse_args()
+    import numpy as np
+
     from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 
     rows, adds = [], []
@@ -73,7 +75,6 @@ def main() -> int:
                 rc = Reconfiguration.from_names("sdss-v", buffer_mm=b,
                                                 options=PlanOptions(algorithm=alg))
                 for s in args.seeds:
-                    import numpy as np
                     rng = np.random.default_rng(s)
                     plan, _ = rc.plan(rc.random_targets(rng), rng)
                     path = Path(tmp) / f"{alg}_{b}_{s}.pkl"
