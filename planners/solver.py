@@ -7,7 +7,9 @@ forward mode it plans fold -> targets directly (for comparison, Fig. 8).
 When robots deadlock (groups connected through the Eq. 4 neighbour graph), two
 resolvers (``PlannerSettings.resolve``):
 
-* ``"search"`` (default): each group is re-planned by the state-time search of
+* ``"search"`` (default): first the stepwise run is repeated with greedy-first Markov
+  robots around the groups (:mod:`rfp_twin.planners.rerun`, ``PlannerSettings.reruns``
+  attempts, a few hundredths of a second each); then each group left is re-planned by the state-time search of
   :mod:`rfp_twin.planners.resolve_search` (Sabater 2018), keeping every target; the other robots'
   stepwise paths are its moving obstacles and the new paths are merged into the plan
   on the same step clock. A group the search cannot resolve goes on alone with Markov
@@ -23,9 +25,11 @@ kept by the search are not replaced), convergence of the first run, tau_pg (wall
 the first planner run: every kernel call of it, those repeated after a breakpoint-buffer
 overflow included; ``pg_retries`` counts such repeats over all runs, none below
 :data:`rfp_twin.planners.stepwise.run.MAX_EVENTS`), tau_sr (all runs), ``planning_s``
-(the whole call: runs, searches, continuation, replacements, paths), fold time (steps x
-step duration); and the
-resolution: ``n_search_groups`` / ``n_search_robots`` (deadlocked groups / robots the
+(the whole call: runs, re-runs, searches, continuation, replacements, paths), fold time
+(steps x step duration); and the resolution: ``n_rerun_groups`` / ``n_rerun_robots``
+(deadlocked groups / robots of a run that a re-run resolved, over all rounds),
+``rerun_attempts``, ``rerun_s`` (wall time of the re-runs, also in tau_sr),
+``n_search_groups`` / ``n_search_robots`` (deadlocked groups / robots the
 final plan resolves by search), ``n_search_replanned`` (robots whose paths the search
 changed, recruited neighbours included), ``n_search_failed_groups`` (over all rounds),
 ``n_replace_groups`` (groups resolved by replacing a target), ``search_s`` (wall time of
@@ -47,6 +51,7 @@ from rfp_twin.models.errors import PlanningError, SpecError, TargetError
 from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
 from rfp_twin.planners.continuation import continue_groups
 from rfp_twin.planners.offline import apply_offline
+from rfp_twin.planners.rerun import rerun_deadlocks
 from rfp_twin.planners.resolve_search import PathSet, SearchResolveSettings, resolve_groups
 from rfp_twin.planners.stepwise import ANGLE_EPS, StepRun, array_max_displacement, run_array
 from rfp_twin.planners.targets import check_targets, random_targets
@@ -67,7 +72,9 @@ class PlannerSettings:
     resolve : "search" (re-plan each deadlocked group with the state-time search of
     :mod:`rfp_twin.planners.resolve_search`, keeping its targets; replace a target only where the
     search fails) | "replace" (replace one target per group and re-plan, Sayres 2021
-    Sect. 5.2). search : options of the search (None = defaults). continuation :
+    Sect. 5.2). reruns : with ``resolve="search"``, re-runs at most with greedy-first
+    Markov robots around the groups before the search (:mod:`rfp_twin.planners.rerun`;
+    0 = none). search : options of the search (None = defaults). continuation :
     with ``resolve="search"``, Markov runs at most that let the groups the search could
     not resolve go on alone after the plan's end (:mod:`rfp_twin.planners.continuation`) before
     a target is replaced; 0 = none.
@@ -83,6 +90,7 @@ class PlannerSettings:
     resolve: str = "search"
     search: SearchResolveSettings | None = None
     continuation: int = 8
+    reruns: int = 8
 
     def __post_init__(self) -> None:
         if self.resolve not in RESOLVERS:
@@ -103,6 +111,8 @@ class PlannerSettings:
             raise SpecError(f"field 'max_rounds' = {self.max_rounds!r}; allowed: >= 0")
         if self.continuation < 0:
             raise SpecError(f"field 'continuation' = {self.continuation!r}; allowed: >= 0")
+        if self.reruns < 0:
+            raise SpecError(f"field 'reruns' = {self.reruns!r}; allowed: >= 0")
 
     @property
     def steps_limit(self) -> int:
@@ -135,6 +145,24 @@ def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movab
                        settings.search or SearchResolveSettings(), np.random.default_rng(seed))
     ev_robot, ev_step, ev_angles = res.events()
     return StepRun(res.final, res.n_steps, ev_robot, ev_step, ev_angles, res.seconds)
+
+
+def _rerun(geom: ArrayGeometry, first: StepRun, start: np.ndarray, goal: np.ndarray,
+           movable: np.ndarray, settings: PlannerSettings, seed: int):
+    """Re-runs of ``first`` with greedy-first Markov robots around its deadlocked groups
+    (:func:`rfp_twin.planners.rerun.rerun_deadlocks`)."""
+    md = array_max_displacement(geom, settings.step_deg)
+
+    def run(greed, phobia, greedy_first, s, max_steps):
+        return run_array(geom, start, goal, movable, step_deg=settings.step_deg,
+                         max_steps=min(max_steps, settings.steps_limit), md=md, greed=greed,
+                         phobia=phobia,
+                         seed=s, greedy_first=greedy_first)
+
+    greedy = settings.greedy
+    return rerun_deadlocks(first, goal, movable, geom.pairs, 1.0 if greedy else settings.greed,
+                           0.0 if greedy else settings.phobia, run, seed + 104729,
+                           settings.reruns)
 
 
 def _continue(geom: ArrayGeometry, outcome, groups: list[np.ndarray], goal: np.ndarray,
@@ -254,6 +282,8 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     memo: dict = {}       # search results by group and surroundings, across rounds
     continuation_s = 0.0
     n_continued_groups = n_continued_robots = 0
+    rerun_s = 0.0
+    rerun_attempts = n_rerun_groups = n_rerun_robots = 0
     while True:
         seed = int(rng.integers(0, 2**31 - 1))
         if settings.direction == "reverse":
@@ -281,6 +311,19 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             progress(rounds, int(stuck.sum()))
         outcome = None
         to_replace = deadlocked_groups(geom, stuck) if stuck.any() else []
+        if use_search and to_replace and settings.reruns > 0 and settings.algorithm != "roadmap":
+            # cheapest first: the same run again, greedy-first Markov robots around the groups
+            rr = _rerun(geom, run, start, goal, movable, settings, seed)
+            rerun_s += rr.seconds
+            tau_sr += rr.seconds
+            rerun_attempts += rr.attempts
+            run = rr.fewest
+            left = movable & ~np.all(np.abs(run.final - goal) < ANGLE_EPS, axis=1)
+            resolved_groups = [g for g in to_replace if not left[g].any()]
+            n_rerun_groups += len(resolved_groups)
+            n_rerun_robots += int(sum(len(g) for g in resolved_groups))
+            stuck = left
+            to_replace = deadlocked_groups(geom, stuck) if stuck.any() else []
         if use_search and to_replace:
             # keep targets: re-plan each deadlocked group by state-time search; its own
             # generator (from this round's seed) leaves ``rng`` as "replace" uses it
@@ -350,7 +393,8 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         "n_search_robots": n_search_robots, "n_search_replanned": n_search_replanned,
         "n_search_failed_groups": n_search_failed, "n_replace_groups": n_replace_groups,
         "continuation_s": continuation_s, "n_continued_groups": n_continued_groups,
-        "n_continued_robots": n_continued_robots,
+        "n_continued_robots": n_continued_robots, "n_rerun_groups": n_rerun_groups,
+        "n_rerun_robots": n_rerun_robots, "rerun_attempts": rerun_attempts, "rerun_s": rerun_s,
         "planning_s": time.perf_counter() - clock,
     })
     plan = Plan(

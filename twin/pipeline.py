@@ -71,6 +71,8 @@ class PlanOptions:
     direction : reverse (targets -> fold, played backwards) | forward
     resolve : search | replace | none (deadlocks left by the stepwise planners)
     max_steps, max_rounds : step limit [default 1000 deg / step] and resolution rounds
+    reruns : with resolve=search, re-runs with greedy-first Markov robots around the
+        deadlocked groups before the search (0: straight to the search)
     apf_gain, lambda3 : field gain (1/s) and CAPF cooperative weight
     raw : deliver the stepwise paths (constant speed, infinite acceleration), no
         post-processing; they are checked at the planning buffer
@@ -88,6 +90,7 @@ class PlanOptions:
     resolve: str = "search"
     max_steps: int | None = None
     max_rounds: int = 50
+    reruns: int = 8
     apf_gain: float = 1.0
     lambda3: float = 0.03
     raw: bool = False
@@ -114,7 +117,7 @@ class PlanOptions:
         return PlannerSettings(algorithm=self.algorithm if self.stepwise else "greedy",
                                step_deg=self.step_deg, greed=self.greed, phobia=self.phobia,
                                direction=self.direction, max_steps=self.max_steps,
-                               max_rounds=self.max_rounds,
+                               max_rounds=self.max_rounds, reruns=self.reruns,
                                resolve="replace" if self.resolve == "none" else self.resolve)
 
     def field_settings(self):

@@ -22,7 +22,11 @@ Rules, as in the paper:
   ``2 sigma + 3 MD`` (Eq. 10); otherwise with probability ``phobia`` it minimises the
   energy E = sum 1/D^2 (Eq. 9) instead of the cost, visits the candidates in random
   order, and accepts an allowed candidate that beats the best so far with probability
-  ``greed`` (a tie with probability 1/2). greed = 1, phobia = 0 is GC.
+  ``greed`` (a tie with probability 1/2). greed = 1, phobia = 0 is GC;
+* greed and phobia are per robot, so one run may mix GC robots with MC ones; an MC robot
+  marked ``greedy_first`` takes its obvious move whenever it passes the step rule and
+  uses the MC rules only when that move is blocked or when it is home (the deadlock
+  re-runs of :mod:`rfp_twin.planners.rerun`).
 
 Why a stepwise plan is collision-free in continuous time: every pair satisfies
 D > 2 sigma + MD at every step state (each mover is checked against its neighbours'
@@ -129,7 +133,8 @@ def _per_item(x, n: int, shape: tuple = ()) -> np.ndarray:
 def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                  fid_ptr, fid_idx, fid_xy, fid_buffer,
                  alpha_len, seg_start, seg_end, buffer, limits, step_deg, max_steps, md,
-                 greed, phobia, seed, ev_robot, ev_step, ev_angles, cur, fid_end_xy=None):
+                 greed, phobia, seed, ev_robot, ev_step, ev_angles, cur, fid_end_xy=None,
+                 greedy_first=None):
     """Run GC/MC from ``start`` towards ``dest``: :func:`run_stepwise_arrays` on per-robot arrays.
 
     Parameters
@@ -149,14 +154,19 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         range for all or each robot's (:attr:`rfp_twin.models.array.ArrayGeometry.limits`)
     step_deg : float; max_steps : int; md : float, step-rule margin MD, mm
         (:func:`rfp_twin.planners.stepwise.moves.array_max_displacement`)
-    greed : (n,) float64 in [0, 1]; phobia : float in [0, 1]; greed 1 and phobia 0
-        everywhere selects the deterministic greedy planner
+    greed, phobia : (n,) float64 in [0, 1], each robot's Markov parameters; a robot with
+        greed 1 and phobia 0 follows the deterministic greedy rules, the others the
+        Markov chain's (one run may mix them)
     seed : int, seeds the kernel's splitmix64 generator (used by MC only)
     ev_robot, ev_step : (cap,) int64; ev_angles : (cap, 2) float64
         Output buffers for breakpoints: robot, step index, (alpha, beta).
     cur : (n, 2) float64, output: final configuration.
     fid_end_xy : (m, 2) float64 or None, second end of each obstacle, mm [default: the
         obstacles are points, ``fid_xy``]
+    greedy_first : (n,) bool or None, Markov robots (greed < 1 or phobia > 0) that take
+        their obvious move (one step towards the destination on each axis) whenever it
+        passes the step rule, and make a Markov move only when it is blocked or when
+        they are at their destination [default: none; greedy robots always do]
 
     Returns
     -------
@@ -167,23 +177,27 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
     fid_xy = _per_item(fid_xy, fid_xy.shape[0], (2,))
     m = fid_xy.shape[0]
     fid_end_xy = fid_xy if fid_end_xy is None else _per_item(fid_end_xy, m, (2,))
+    greedy_first = np.zeros(n, np.bool_) if greedy_first is None else \
+        np.ascontiguousarray(greedy_first, dtype=np.bool_)
     return run_stepwise_arrays(
         base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx,
         fid_xy, fid_end_xy, _per_item(fid_buffer, m), _per_item(alpha_len, n),
         _per_item(seg_start, n), _per_item(seg_end, n), _per_item(buffer, n),
-        _per_item(limits, n, (4,)), step_deg, max_steps, md, greed, phobia, seed, ev_robot, ev_step, ev_angles, cur)
+        _per_item(limits, n, (4,)), step_deg, max_steps, md, _per_item(greed, n),
+        _per_item(phobia, n), seed, ev_robot, ev_step, ev_angles, cur, greedy_first)
 
 
 @njit(cache=True)
 def run_stepwise_arrays(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                         fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
                         alpha_len, seg_start, seg_end, buffer, limits, step_deg, max_steps, md,
-                        greed, phobia, seed, ev_robot, ev_step, ev_angles, cur):
+                        greed, phobia, seed, ev_robot, ev_step, ev_angles, cur, greedy_first):
     """The compiled kernel of :func:`run_stepwise`, every geometry argument an array.
 
     Arguments as in :func:`run_stepwise`, except: ``fid_end_xy`` (m, 2) float64 mm (equal
     to ``fid_xy`` for a point obstacle), ``fid_buffer`` (m,) float64 mm, ``alpha_len``,
-    ``seg_start``, ``seg_end``, ``buffer`` (n,) float64 mm, ``limits`` (n, 4) float64 deg.
+    ``seg_start``, ``seg_end``, ``buffer`` (n,) float64 mm, ``limits`` (n, 4) float64 deg,
+    ``greed``, ``phobia`` (n,) float64, ``greedy_first`` (n,) bool.
     Returns (n_events, n_steps).
     """
     greedy, n_left, rng_state, par, rs, near, sched, scratch = new_state(
@@ -191,14 +205,14 @@ def run_stepwise_arrays(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dis
         step_deg, md, greed, phobia, seed, cur)
     arr = (base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
            alpha_len, seg_start, seg_end, buffer)
-    return step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_left,
-                     rng_state, arr, par, rs, near, sched, scratch,
+    return step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, greedy_first,
+                     n_left, rng_state, arr, par, rs, near, sched, scratch,
                      (ev_robot, ev_step, ev_angles))
 
 
 @njit(cache=True, _nrt=False)
-def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_left, rng_state,
-              arr, par, rs, near, sched, scratch, ev):
+def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, greedy_first, n_left,
+              rng_state, arr, par, rs, near, sched, scratch, ev):
     """The step loop of :func:`run_stepwise`: every robot, step after step, until all are home.
 
     Arguments as in :func:`run_stepwise_arrays`, and the state of
@@ -226,7 +240,8 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_le
         n_awake = 0
         step += 1
         for i in range(n):
-            if not movable[i] or (greedy and home[i]) or step < home_until[i]:
+            gc = greedy[i]
+            if not movable[i] or (gc and home[i]) or step < home_until[i]:
                 continue
             if asleep_at[i] >= 0:
                 if not woken(i, asleep_at[i], nbr_ptr, nbr_idx, moved_at):
@@ -258,7 +273,7 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_le
             free = False
             ka_best = _sign(da - ca)
             kb_best = _sign(db - cb)
-            if greedy:
+            if gc or (greedy_first[i] and not home[i]):
                 # the obvious move (best step on each axis) has the least cost: try it first
                 cand[0, 0] = _toward(ca, da, ka_best, step_deg, a_lo, a_hi)
                 cand[0, 1] = _toward(cb, db, kb_best, step_deg, b_lo, b_hi)
@@ -266,7 +281,7 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_le
             if best < 0:
                 fill_candidates(cand, cost, order, ca, cb, da, db, step_deg, a_lo, a_hi, b_lo, b_hi)
                 obvious = 3 * (ka_best + 1) + kb_best + 1
-            if greedy and best < 0:
+            if gc and best < 0:
                 sort_by_cost(order, cost)
                 for p in range(9):
                     q = order[p]
@@ -277,10 +292,11 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_le
                     best = try_cand(cand, q, i, ca, cb, bx, by, s1, md, True, arr, par, rs, near)
                     if best >= 0:
                         break
-            elif not greedy:
+            elif not gc and best < 0:
                 # Markov chain (Sect. 4.2): energy or cost; candidates in random order,
-                # each that beats the best so far taken with probability greed
-                use_energy = uniform(rng_state) < phobia
+                # each that beats the best so far taken with probability greed (a
+                # greedy-first robot gets here only when its obvious move is blocked)
+                use_energy = uniform(rng_state) < phobia[i]
                 if step >= free_until[i]:
                     w = free_window(i, step, arr, par, rs, near)
                     if w > 0:
@@ -305,8 +321,8 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_le
             if best < 0 or (cand[best, 0] == ca and cand[best, 1] == cb):
                 # stay. GC: the choice cannot change until a neighbour moves, so sleep.
                 # MC: sleep only when no move at all passes the step rule.
-                sleep = greedy
-                if not greedy and n_valid_moves == 0 and not free:
+                sleep = gc
+                if not gc and n_valid_moves == 0 and not free:
                     sleep = not any_move_passes(cand, i, ca, cb, bx, by, s1, arr, par, rs, near)
                 if sleep:
                     asleep_at[i] = n_moves
@@ -326,7 +342,7 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, n_le
             moved_at[i] = n_moves
             n_awake += 1
             now_home = abs(na - da) < ANGLE_EPS and abs(nb - db) < ANGLE_EPS
-            if now_home and greedy:
+            if now_home and gc:
                 # a greedy robot at home never moves again and is never visited: its
                 # arrival is its last breakpoint (without it, interpolation to the plan's
                 # last step would spread its last moves over the steps it waits)

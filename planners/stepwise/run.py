@@ -53,8 +53,8 @@ class StepRun:
 
 
 def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray, *,
-              step_deg: float, max_steps: int, md: float, greed: float, phobia: float, seed: int,
-              cap: int | None = None) -> StepRun:
+              step_deg: float, max_steps: int, md: float, greed, phobia, seed: int,
+              cap: int | None = None, greedy_first: np.ndarray | None = None) -> StepRun:
     """Run the stepwise kernel on ``geom`` from ``start`` towards ``dest``.
 
     Parameters
@@ -67,13 +67,15 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
     step_deg : float, planner step, deg; max_steps : int, step limit
     md : float, step-rule margin MD, mm (for per-robot geometry, at least
         :func:`rfp_twin.planners.stepwise.moves.array_max_displacement`)
-    greed, phobia : float in [0, 1], the Markov parameters of every robot; greed 1 and
-        phobia 0 is the greedy planner
+    greed, phobia : float or (n,) float64 in [0, 1], the Markov parameters of every robot
+        or of each; a robot with greed 1 and phobia 0 follows the greedy planner's rules
     seed : int, seed of the kernel's generator (Markov moves)
     cap : int or None, breakpoints the first buffers hold [default: one per robot and
         step, ``n (max_steps + 1)``, which the kernel cannot exceed (it records a robot at
         most once a step), up to :data:`MAX_EVENTS`; the buffers are allocated untouched,
         so only the breakpoints written take memory]
+    greedy_first : (n,) bool or None, Markov robots that take their obvious move whenever
+        it passes and a Markov move only when blocked [default: none]
     """
     n = geom.n_robots
     limits = geom.limits
@@ -82,7 +84,6 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
     cap = max(1, int(cap))
     start = np.ascontiguousarray(start, dtype=np.float64)
     dest = np.ascontiguousarray(dest, dtype=np.float64)
-    greed_all = np.full(n, float(greed))
     seconds, retries = 0.0, 0
     while True:
         ev_robot = np.empty(cap, dtype=np.int64)
@@ -94,8 +95,9 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
             geom.base_xy, start, dest, movable, geom.nbr_ptr, geom.nbr_idx, geom.nbr_dist,
             geom.fid_ptr, geom.fid_idx, geom.fid_xy, geom.fid_buffer,
             geom.alpha_len, geom.seg_start, geom.seg_end, geom.buffer, limits,
-            step_deg, max_steps, md, greed_all, phobia, seed,
-            ev_robot, ev_step, ev_angles, final, fid_end_xy=geom.fid_end_xy)
+            step_deg, max_steps, md, greed, phobia, seed,
+            ev_robot, ev_step, ev_angles, final, fid_end_xy=geom.fid_end_xy,
+            greedy_first=greedy_first)
         seconds += time.perf_counter() - t0
         if n_ev >= 0:
             return StepRun(final, int(n_steps), ev_robot[:n_ev], ev_step[:n_ev], ev_angles[:n_ev],

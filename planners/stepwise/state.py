@@ -36,18 +36,20 @@ def new_state(base_xy, start, dest, movable, nbr_ptr, alpha_len, seg_start, seg_
     (``alpha_len``, ``seg_start``, ``seg_end`` (n,) mm: each robot's alpha arm and
     collision segment). The bounds ``free_step`` and ``disp`` are the largest over the
     robots. Returns
-    (greedy, n_left, rng_state, par, rs, near, sched, scratch): greedy is True when
-    every robot has greed 1 and phobia is 0 (the deterministic GC planner); n_left
+    (greedy, n_left, rng_state, par, rs, near, sched, scratch): greedy (n,) bool, True
+    for a robot with greed 1 and phobia 0 (it follows the deterministic GC rules; the
+    others the Markov chain's, so one run may mix the two planners); n_left
     counts the movable robots away from their destination; rng_state (1,) uint64 is
     the splitmix64 state seeded from ``seed``.
     """
     rng_state = np.empty(1, dtype=np.uint64)
     rng_state[0] = np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(0x2545F4914F6CDD1D)
     n = base_xy.shape[0]
-    greedy = phobia <= 0.0
+    greedy = np.empty(n, dtype=np.bool_)
+    all_greedy = True
     for i in range(n):
-        if greed[i] < 1.0:
-            greedy = False
+        greedy[i] = greed[i] >= 1.0 and phobia[i] <= 0.0
+        all_greedy = all_greedy and greedy[i]
 
     # per-robot state: (cos a, sin a, cos(a+b), sin(a+b), cos b, sin b), segment, reach
     trig = np.empty((n, 6))
@@ -65,7 +67,7 @@ def new_state(base_xy, start, dest, movable, nbr_ptr, alpha_len, seg_start, seg_
     near_cnt = np.zeros(n, dtype=np.int64)
     near_col = np.zeros(n, dtype=np.int64)           # how many of them the step rule needs
     near_until = np.zeros(n, dtype=np.int64)          # step at which the list expires
-    near_ref = 0.0 if greedy else ENERGY_CUTOFF_MM    # MC energy needs neighbours to the cutoff
+    near_ref = 0.0 if all_greedy else ENERGY_CUTOFF_MM  # MC energy needs neighbours to the cutoff
     home_until = np.zeros(n, dtype=np.int64)          # MC: parked robot needs no Eq. 10 check
     free_until = np.zeros(n, dtype=np.int64)          # MC: every candidate passes the step rule
     s1_max = 0.0     # farthest segment point along any beta arm, mm

@@ -26,9 +26,10 @@ def assert_clear(geom: ArrayGeometry, plan) -> None:
 
 @pytest.fixture(scope="module")
 def deadlock_547():
-    """547 grid, 2.5 mm, 0.25 deg, seed 5: greedy leaves two deadlocked groups (6 robots)."""
+    """547 grid, 2.5 mm, 0.25 deg, seed 5: greedy leaves two deadlocked groups (6 robots).
+    No re-runs (``reruns=0``, :mod:`rfp_twin.planners.rerun`): the search gets the groups."""
     geom = ArrayGeometry(load_spec("sdss-v"), Layout.sdss_v_grid(), 2.5)
-    targets, plan = plan_random(geom, 5, resolver="search", step_deg=0.25)
+    targets, plan = plan_random(geom, 5, resolver="search", step_deg=0.25, reruns=0)
     return geom, targets, plan
 
 
@@ -65,7 +66,8 @@ def test_search_paths_run_on_the_step_clock_at_the_robot_speed(deadlock_547):
 def test_markov_deadlock_is_resolved_too():
     """547 grid, 3.5 mm, 0.1 deg, seed 5: the Markov planner leaves two robots stuck."""
     geom = ArrayGeometry(load_spec("sdss-v"), Layout.sdss_v_grid(), 3.5)
-    targets, plan = plan_random(geom, 5, resolver="search", algorithm="markov", step_deg=0.1)
+    targets, plan = plan_random(geom, 5, resolver="search", algorithm="markov", step_deg=0.1,
+                                reruns=0)
     m = plan.metrics
     assert m["convergence"] < 1.0 and m["n_search_robots"] >= 2
     assert m["n_replaced"] == 0 and plan.complete and np.all(plan.status == REACHED)
@@ -99,6 +101,7 @@ def test_an_impossible_group_falls_back_to_replacing_its_target():
     geom, targets, offline, c = walled_in_case()
     settings = PlannerSettings(step_deg=0.5)
     plan = plan_reconfiguration(geom, targets, settings, np.random.default_rng(0), offline=offline)
+    assert plan.metrics["rerun_attempts"] >= 1 and plan.metrics["n_rerun_groups"] == 0
     m = plan.metrics
     assert m["n_search_failed_groups"] >= 1       # the search could not fold it ...
     assert m["n_replace_groups"] >= 1 and m["n_replaced"] == 1      # ... so it got a new target
@@ -112,7 +115,7 @@ STARVED = SearchResolveSettings(max_nodes=1, max_recruits=0)
 
 def test_search_budget_exhausted_also_falls_back(deadlock_547):
     geom, targets, _ = deadlock_547
-    starved = PlannerSettings(step_deg=0.25, search=STARVED, continuation=0)
+    starved = PlannerSettings(step_deg=0.25, search=STARVED, continuation=0, reruns=0)
     plan = plan_reconfiguration(geom, targets, starved, np.random.default_rng(5))
     m = plan.metrics
     assert m["n_search_failed_groups"] >= 1 and m["n_replaced"] >= 1
@@ -125,7 +128,7 @@ def test_groups_the_search_leaves_go_on_alone_after_the_plan(deadlock_547):
     """Search starved: the Markov continuation untangles the groups after everyone else
     has folded; targets kept, the plan is longer, and the checker finds it clear."""
     geom, targets, searched = deadlock_547
-    starved = PlannerSettings(step_deg=0.25, search=STARVED)
+    starved = PlannerSettings(step_deg=0.25, search=STARVED, reruns=0)
     plan = plan_reconfiguration(geom, targets, starved, np.random.default_rng(5))
     m = plan.metrics
     assert m["n_search_failed_groups"] >= 1 and m["n_continued_groups"] >= 1

@@ -65,9 +65,12 @@ def plan(
                                            "x_mm,y_mm) [default: seeded random]."),
     direction: str = typer.Option("reverse", help="reverse (targets->fold, reversed) | forward"),
     resolve: str = typer.Option("search", help="Deadlocks left by greedy/markov/roadmap: search "
-                                "(re-plan each deadlocked group by state-time search, keeping its "
+                                "(re-run with greedy-first Markov robots around the groups, then "
+                                "re-plan each group left by state-time search, keeping its "
                                 "targets; replace a target only where that fails) | replace (new "
                                 "target for one robot per group, Sayres 2021) | none."),
+    reruns: int = typer.Option(8, help="--resolve search: greedy-first Markov re-runs before the "
+                               "search, >= 0 (0: straight to the search)."),
     apf_gain: float = typer.Option(1.0, help="apf/capf: field gain u = -gain J^T grad psi, 1/s."),
     lambda3: float = typer.Option(0.03, help="capf: cooperative weight (Macktoobian Eq. 5)."),
     max_steps: Optional[int] = typer.Option(None, help="Step limit [default: 1000 deg / step]."),
@@ -93,7 +96,7 @@ def plan(
 
     t_start = time.perf_counter()
     options = PlanOptions(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,
-                          direction=direction, resolve=resolve, max_steps=max_steps,
+                          direction=direction, resolve=resolve, reruns=reruns, max_steps=max_steps,
                           apf_gain=apf_gain, lambda3=lambda3, raw=raw, budget_mm=budget,
                           max_points=max_points, timing_backend=timing_backend)
     spec = load_spec(preset)
@@ -166,7 +169,11 @@ def print_summary(summary: dict, out: Path) -> None:
         ("convergence (1st run)", f"{m['convergence']:.4f}"),
         ("targets replaced", str(m["n_replaced"])),
         ("deadlocked", str(m["n_deadlocked"])),
-        *([("kept by search", f"{m['n_search_robots']} robots, {m['n_search_groups']} groups, "
+        *([("kept by re-run", f"{m.get('n_rerun_robots', 0)} robots, "
+                              f"{m.get('n_rerun_groups', 0)} groups, "
+                              f"{m.get('rerun_s', 0.0):.2f} s ({m.get('rerun_attempts', 0)} "
+                              f"runs)"),
+           ("kept by search", f"{m['n_search_robots']} robots, {m['n_search_groups']} groups, "
                               f"{m['search_s']:.1f} s ({m['n_search_failed_groups']} "
                               f"failed)"),
            ("kept by continuation", f"{m.get('n_continued_robots', 0)} robots, "
