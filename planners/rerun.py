@@ -17,7 +17,8 @@ Attempts climb a ladder (:data:`LADDER`): the region is the stuck robots grown b
 hops through the Eq. 4 neighbour graph (plus the robots stuck in earlier attempts), each
 attempt with its own kernel seed. The first attempt in which every robot reaches its
 destination *without lengthening the first run's fold* is taken at once; otherwise the
-shortest complete attempt after the whole ladder. A re-run is a whole stepwise run, so
+shortest complete attempt, once :data:`EXTRA_ATTEMPTS` more have been made after the
+first complete one (or the ladder is spent). A re-run is a whole stepwise run, so
 the step rule holds for every robot at every step and the plan is collision-free at the
 planning buffer for the same reason as any other (the pipeline's independent 2D check
 looks at it as at any plan). When no attempt completes, the attempt with the fewest stuck
@@ -44,6 +45,9 @@ from rfp_twin.planners.stepwise import ANGLE_EPS, StepRun
 #: of the region's greedy-first Markov robots.
 LADDER = ((2, 0.8, 0.3), (2, 0.8, 0.3), (3, 0.9, 0.2), (1, 0.8, 0.3), (3, 0.8, 0.3),
           (2, 0.5, 0.5), (0, 0.8, 0.3), (3, 0.5, 0.5))
+
+#: Attempts made after the first complete one, looking for a shorter fold.
+EXTRA_ATTEMPTS = 2
 
 #: An attempt stops after this many times the first run's steps: by then it has failed
 #: (a complete attempt that late would lengthen the fold by as much).
@@ -113,6 +117,7 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
     fewest, fewest_stuck = first, int(stuck.sum())
     solved = None
     made = 0
+    first_complete = -1
     for k in range(attempts):
         hops, g, p = LADDER[k % len(LADDER)]
         region = grow_region(pairs, seen, hops) & movable
@@ -124,10 +129,14 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
         if n_left == 0:
             if solved is None or attempt.n_steps < solved.n_steps:
                 solved = attempt
+            if first_complete < 0:
+                first_complete = k
             if attempt.n_steps <= first.n_steps:
                 break                # complete, and the fold is no longer than the plan's
         elif n_left < fewest_stuck:
             fewest, fewest_stuck = attempt, n_left
         seen |= left
+        if 0 <= first_complete <= k - EXTRA_ATTEMPTS:
+            break
     return Rerun(solved, solved if solved is not None else fewest, made,
                  time.perf_counter() - clock)

@@ -216,3 +216,33 @@ def simplify_plan(plan, tol_deg):
     new_ptr = np.concatenate([[0], np.cumsum(keep, dtype=np.int64)])[ptr]
     return replace(plan, path_ptr=new_ptr, path_step=plan.path_step[keep],
                    path_angles=plan.path_angles[keep])
+
+
+def direction_reversals(ptr: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """How often each robot's path turns back on an axis: (n,) int64.
+
+    ptr : (n + 1,) CSR offsets of each robot's breakpoints; angles : (m, 2) deg. A
+    reversal is a sign change of the motion between successive breakpoints on either
+    axis (waits, zero motion, neither start nor end one). Greedy paths have a few;
+    Markov random walks and the robots of a deadlock re-run hundreds.
+    """
+    ptr = np.asarray(ptr, dtype=np.int64)
+    n = ptr.size - 1
+    m = int(ptr[-1]) if n > 0 else 0
+    if m < 3:
+        return np.zeros(n, dtype=np.int64)
+    sign = np.sign(np.diff(np.asarray(angles, dtype=np.float64)[:m], axis=0))     # (m - 1, 2)
+    move_of = np.repeat(np.arange(n), np.diff(ptr))[:-1]      # robot of each increment
+    valid = np.ones(m - 1, dtype=bool)
+    valid[ptr[1:-1] - 1] = False                               # increments across robots
+    # carry each axis's last non-zero direction over waits, per robot
+    turns = np.zeros(n, dtype=np.int64)
+    for ax in range(2):
+        sg = np.where(valid, sign[:, ax], 0.0)
+        idx = np.flatnonzero(sg)
+        if idx.size < 2:
+            continue
+        same_robot = move_of[idx[1:]] == move_of[idx[:-1]]
+        flip = same_robot & (sg[idx[1:]] != sg[idx[:-1]])
+        turns += np.bincount(move_of[idx[1:]][flip], minlength=n)
+    return turns

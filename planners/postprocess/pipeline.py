@@ -4,9 +4,10 @@ Pipeline (:func:`postprocess`):
 
 0. **Pre-simplify** (:func:`rfp_twin.planners.simplify.simplify_plan`): each robot's stepwise
    breakpoints are reduced by RDP within ``presimplify_deg`` on both axes (at equal
-   plan step), so the smoothed path of the reduced plan is within ``presimplify_deg``
-   of the smoothed plan (the running average is an average: it does not increase a
-   sup-norm difference). Markov plans have a breakpoint nearly every step; their
+   plan step; ``wiggle_presimplify_deg`` for the robots whose path turns back more than
+   :data:`WIGGLE_REVERSALS` times), so the smoothed path of the reduced plan is within
+   that tolerance of the smoothed plan (the running average is an average: it does not
+   increase a sup-norm difference). Markov plans have a breakpoint nearly every step; their
    one-step wiggles cost knots and gridpoints, and time where the wiggles are wider
    than the window.
 1. **Smooth** (:mod:`rfp_twin.planners.smoothing`): the running-average velocity filter turns
@@ -73,7 +74,7 @@ from rfp_twin.planners.postprocess.groups import (TimedGroup, assemble, group_of
 from rfp_twin.planners.postprocess.report import PostprocessReport, build_report, slowest_groups
 from rfp_twin.planners.postprocess.verification import (LOCAL_NARROWING, ClearanceLedger,
                                                         near_stretch, repair, verify_neighbours)
-from rfp_twin.planners.simplify import simplify_plan
+from rfp_twin.planners.simplify import direction_reversals, simplify_plan
 from rfp_twin.planners.smoothing import METHODS, SmoothPath, smooth_plan, window_for_limits
 from rfp_twin.planners.smoothing_local import WindowRegions, smooth_plan_local
 from rfp_twin.planners.timing import BACKENDS, DEFAULT_BACKEND, interaction_groups, interaction_pairs
@@ -83,7 +84,8 @@ from rfp_twin.planners.timing import BACKENDS, DEFAULT_BACKEND, interaction_grou
 Verifier = Callable[..., Any]
 
 __all__ = ["Verifier", "postprocess", "DEFAULT_BUDGET_MM", "DEFAULT_TOLERANCE_DEG",
-           "DEFAULT_PRESIMPLIFY_DEG", "DEFAULT_INTERACTION_MM", "DEFAULT_MAX_POINTS",
+           "DEFAULT_PRESIMPLIFY_DEG", "DEFAULT_WIGGLE_PRESIMPLIFY_DEG", "DEFAULT_INTERACTION_MM",
+    "DEFAULT_MAX_POINTS", "WIGGLE_REVERSALS",
            "ALIGNMENTS"]
 
 #: sigma_smooth of Sayres 2021 Eq. 12, mm.
@@ -104,6 +106,17 @@ DEFAULT_TOLERANCE_DEG = 0.1
 #: most 0.13 mm before smoothing; robots whose local window is at its floor and still come
 #: too close get it halved.
 DEFAULT_PRESIMPLIFY_DEG = 0.2
+#: Robots whose stepwise path turns back more often than this on its axes
+#: (:func:`rfp_twin.planners.simplify.direction_reversals`) are *wiggly*: Markov random
+#: walks, the robots of a deadlock re-run (:mod:`rfp_twin.planners.rerun`).
+WIGGLE_REVERSALS = 20
+#: Pre-simplification tolerance of the wiggly robots, deg: their back-and-forth
+#: excursions are cut before smoothing instead of being smoothed and timed. Measured on
+#: the 500-robot SDSS-V layout, 20 seeds, 2.5 mm (benchmarks/RESULTS.md, S10): greedy +
+#: re-run/search firmware-ready fold median 14.12 -> 13.79 s, max 15.39 -> 15.14 s; Markov
+#: 24.80 -> 19.26 s. 1 deg left collisions the verification rounds could not repair on
+#: one seed in 20. The verification at buffer - budget still decides, as for every path.
+DEFAULT_WIGGLE_PRESIMPLIFY_DEG = 0.5
 #: Pairs whose clearance falls below this at some step of the plan share one path
 #: parameter, mm. Robots that share one slow down for each other's corners, so smaller
 #: groups are faster; pairs timed apart that meet anyway are merged by the verification.
@@ -136,6 +149,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                 max_points: int = DEFAULT_MAX_POINTS,
                 tolerance_deg: float = DEFAULT_TOLERANCE_DEG,
                 presimplify_deg: float = DEFAULT_PRESIMPLIFY_DEG,
+                wiggle_presimplify_deg: float = DEFAULT_WIGGLE_PRESIMPLIFY_DEG,
                 smoothing: str = "average",
                 window_steps: float | None = None,
                 interaction_mm: float = DEFAULT_INTERACTION_MM,
@@ -159,6 +173,8 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     max_points : most (angle, time) points per axis (firmware: 1024)
     tolerance_deg : RDP tolerance, deg (raised per axis only if ``max_points`` forces it)
     presimplify_deg : RDP tolerance of the stepwise plan before smoothing, deg (0: off)
+    wiggle_presimplify_deg : the same for the robots whose path turns back more than
+        :data:`WIGGLE_REVERSALS` times, deg (at least ``presimplify_deg`` is used)
     smoothing, window_steps : method and initial window (plan steps) of
         :func:`rfp_twin.planners.smoothing.smooth_plan` [default window:
         :func:`rfp_twin.planners.smoothing.window_for_limits` of the spec and the plan's step]
@@ -197,6 +213,9 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         window_steps = window_for_limits(spec.max_speed_deg_s, spec.max_accel_deg_s2, plan.step_deg)
     _check_args(budget_mm, buffer_mm, max_points, tolerance_deg, smoothing, window_steps,
                 interaction_mm, sample_s, grid_steps, align, backend, max_retries)
+    for name, value in (("wiggle_presimplify_deg", wiggle_presimplify_deg),):
+        if not (np.isfinite(value) and 0.0 <= value <= 10.0):
+            raise field_error(SpecError, name, value, "[0, 10] deg", "postprocess")
     if not (np.isfinite(presimplify_deg) and 0.0 <= presimplify_deg <= 10.0):
         raise field_error(SpecError, "presimplify_deg", presimplify_deg, "[0, 10] deg",
                           "postprocess")
@@ -213,6 +232,8 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     t0 = time.perf_counter()
     window = np.full(n, float(window_steps))
     pre = np.full(n, float(presimplify_deg))
+    wiggly = direction_reversals(plan.path_ptr, plan.path_angles) > WIGGLE_REVERSALS
+    pre[wiggly] = max(float(presimplify_deg), float(wiggle_presimplify_deg))
     pad = float(window_steps) / 2.0
     regions = WindowRegions(n, LOCAL_NARROWING) if smoothing == "average" else None
     cache: dict = {}
@@ -331,6 +352,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         np.flatnonzero(window < float(window_steps)).tolist())
     report.slowest_groups = slowest_groups(plan, groups, narrowed)
     report.presimplify_deg = float(presimplify_deg)
+    report.n_wiggly_robots = int(wiggly.sum())
     report.plan_breakpoints = int(plan.path_step.size)
     report.smoothed_breakpoints = n_smoothed
     report.final_check = check if verifier is not None and final_full else None

@@ -118,6 +118,8 @@ class PostprocessReport:
     timing_solvers: dict = field(default_factory=dict)
     timing_fallbacks: int = 0
     presimplify_deg: float = 0.0
+    #: Robots pre-simplified at the wiggle tolerance (their paths turn back often).
+    n_wiggly_robots: int = 0
     plan_breakpoints: int = 0
     smoothed_breakpoints: int = 0
     stage_seconds: dict = field(default_factory=dict)
@@ -160,7 +162,8 @@ class PostprocessReport:
             f"{self.points_per_axis_max} (<= {self.max_points}); tolerance "
             f"{self.tolerance_deg:g} deg; retries {self.retries}",
             f"  breakpoints {self.plan_breakpoints} -> {self.smoothed_breakpoints} smoothed "
-            f"(pre-simplified within {self.presimplify_deg:g} deg)",
+            f"(pre-simplified within {self.presimplify_deg:g} deg; "
+            f"{self.n_wiggly_robots} wiggly robots at the wiggle tolerance)",
             f"  timing: {self.backend} backend, groups by solver "
             + ", ".join(f"{k} {v}" for k, v in sorted(self.timing_solvers.items()))
             + f"; fallbacks {self.timing_fallbacks}",

@@ -15,6 +15,8 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.planners.plan import Plan
 from rfp_twin.planners.postprocess import postprocess
+from rfp_twin.planners.postprocess.pipeline import WIGGLE_REVERSALS
+from rfp_twin.planners.simplify import direction_reversals
 from rfp_twin.planners.timing import pl_kinematics
 from rfp_twin.models.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random
@@ -94,10 +96,30 @@ def test_markov_plan_is_pre_simplified_and_stays_collision_free():
     assert rep.presimplify_deg == 0.2 and rep.plan_breakpoints == plan.path_step.size
     assert rep.smoothed_breakpoints < 0.5 * rep.plan_breakpoints
     assert_firmware_ready(traj, rep, plan, geom)
-    _, raw = postprocess(plan, geom, presimplify_deg=0.0, verifier=check_trajectory)
+    _, raw = postprocess(plan, geom, presimplify_deg=0.0, wiggle_presimplify_deg=0.0,
+                         verifier=check_trajectory)
     assert raw.smoothed_breakpoints == raw.plan_breakpoints and raw.verified
     with pytest.raises(SpecError, match="presimplify_deg"):
         postprocess(plan, geom, presimplify_deg=-0.1, verifier=check_trajectory)
+    with pytest.raises(SpecError, match="wiggle_presimplify_deg"):
+        postprocess(plan, geom, wiggle_presimplify_deg=11.0, verifier=check_trajectory)
+
+
+def test_wiggly_robots_get_the_wiggle_tolerance_and_stay_collision_free():
+    """A Markov random walk turns back hundreds of times: its robots are cut within the
+    wiggle tolerance (fewer breakpoints, a shorter timed fold), and the independent 2D
+    checker still passes the result."""
+    geom = make_geom(91, 2.0)
+    _, plan = plan_random(geom, 3, step_deg=0.1, algorithm="markov")
+    wiggly = direction_reversals(plan.path_ptr, plan.path_angles) > WIGGLE_REVERSALS
+    assert wiggly.sum() > plan.n_robots // 2
+    _, plain = postprocess(plan, geom, wiggle_presimplify_deg=0.0, verifier=check_trajectory)
+    traj, rep = postprocess(plan, geom, verifier=check_trajectory)
+    assert plain.n_wiggly_robots == rep.n_wiggly_robots == int(wiggly.sum())
+    assert rep.smoothed_breakpoints < plain.smoothed_breakpoints
+    assert rep.duration_s < plain.duration_s
+    assert_firmware_ready(traj, rep, plan, geom)
+    assert rep.to_dict()["n_wiggly_robots"] == rep.n_wiggly_robots
 
 
 def test_production_layout_with_fiducials_and_a_small_point_budget():

@@ -11,7 +11,8 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import REACHED, build_paths
-from rfp_twin.planners.rerun import LADDER, STEP_CAP, grow_region, rerun_deadlocks
+from rfp_twin.planners.rerun import (EXTRA_ATTEMPTS, LADDER, STEP_CAP, grow_region,
+                                     rerun_deadlocks)
 from rfp_twin.planners.solver import PlannerSettings
 from rfp_twin.planners.stepwise import StepRun, array_max_displacement, run_array
 from rfp_twin.validation.checker2d import check_trajectory
@@ -94,9 +95,12 @@ def test_the_first_complete_attempt_no_longer_than_the_plan_is_taken_at_once():
 
 def test_without_an_early_accept_the_shortest_complete_attempt_wins():
     first = _fake(100, [3])
-    run, _ = _ladder_of([_fake(120, []), _fake(125, [2]), _fake(110, []), _fake(115, [])])
-    rr = rerun_deadlocks(first, GOAL, MOVABLE, PAIRS, 1.0, 0.0, run, seed=0, attempts=4)
-    assert rr.attempts == 4 and rr.solved.n_steps == 110 and rr.fewest is rr.solved
+    run, _ = _ladder_of([_fake(125, [2]), _fake(120, []), _fake(125, [2]), _fake(110, []),
+                         _fake(105, [])])
+    rr = rerun_deadlocks(first, GOAL, MOVABLE, PAIRS, 1.0, 0.0, run, seed=0, attempts=8)
+    # EXTRA_ATTEMPTS more after the first complete one (the second attempt), then stop
+    assert rr.attempts == 2 + EXTRA_ATTEMPTS == 4
+    assert rr.solved.n_steps == 110 and rr.fewest is rr.solved
 
 
 def test_when_nothing_completes_the_attempt_with_fewest_stuck_goes_on():

@@ -156,3 +156,20 @@ def test_each_chord_rounding_is_kept_at_exact_ties():
         np.testing.assert_array_equal(small.path_step, t[rdp_reference(t, y, 0.05, False)])
         differ += not np.array_equal(axis, rdp_reference(t, y[:, :1], 0.05, False))
     assert differ > 0
+
+
+def test_direction_reversals_count_turns_per_robot_and_axis():
+    from rfp_twin.planners.simplify import direction_reversals
+
+    # robot 0: alpha up, wait, down (1 turn), beta steady; robot 1: beta zig-zag (3 turns);
+    # robot 2: a single breakpoint; robot 3: alpha up then, after robot boundaries, nothing
+    a0 = [[0, 0], [1, 1], [1, 2], [0, 3]]
+    a1 = [[5, 0], [5, 1], [5, 0], [5, 1], [5, 0]]
+    a2 = [[3, 3]]
+    a3 = [[0, 0], [2, 0]]
+    angles = np.array(a0 + a1 + a2 + a3, dtype=float)
+    ptr = np.cumsum([0, len(a0), len(a1), len(a2), len(a3)])
+    assert direction_reversals(ptr, angles).tolist() == [1, 3, 0, 0]
+    # a turn across two robots' paths is not counted
+    angles2 = np.array([[0, 0], [1, 0], [0, 0], [-1, 0]], dtype=float)
+    assert direction_reversals(np.array([0, 2, 4]), angles2).tolist() == [0, 0]
