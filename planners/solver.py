@@ -7,9 +7,11 @@ forward mode it plans fold -> targets directly (for comparison, Fig. 8).
 When robots deadlock (groups connected through the Eq. 4 neighbour graph), two
 resolvers (``PlannerSettings.resolve``):
 
-* ``"search"`` (default): first the stepwise run is repeated with greedy-first Markov
-  robots around the groups (:mod:`rfp_twin.planners.rerun`, ``PlannerSettings.reruns``
-  attempts, a few hundredths of a second each); then each group left is re-planned by the state-time search of
+* ``"search"`` (default): first, for the greedy planner, the stepwise run is repeated
+  with greedy-first Markov robots around the groups (:mod:`rfp_twin.planners.rerun`,
+  ``PlannerSettings.reruns`` attempts, a few hundredths of a second each; a deadlocked
+  Markov run has gone on to its step limit, so a re-run of it costs that much and is
+  not tried); then each group left is re-planned by the state-time search of
   :mod:`rfp_twin.planners.resolve_search` (Sabater 2018), keeping every target; the other robots'
   stepwise paths are its moving obstacles and the new paths are merged into the plan
   on the same step clock. A group the search cannot resolve goes on alone with Markov
@@ -72,9 +74,9 @@ class PlannerSettings:
     resolve : "search" (re-plan each deadlocked group with the state-time search of
     :mod:`rfp_twin.planners.resolve_search`, keeping its targets; replace a target only where the
     search fails) | "replace" (replace one target per group and re-plan, Sayres 2021
-    Sect. 5.2). reruns : with ``resolve="search"``, re-runs at most with greedy-first
-    Markov robots around the groups before the search (:mod:`rfp_twin.planners.rerun`;
-    0 = none). search : options of the search (None = defaults). continuation :
+    Sect. 5.2). reruns : with ``resolve="search"`` and the greedy planner, re-runs at most
+    with greedy-first Markov robots around the groups before the search
+    (:mod:`rfp_twin.planners.rerun`; 0 = none). search : options of the search (None = defaults). continuation :
     with ``resolve="search"``, Markov runs at most that let the groups the search could
     not resolve go on alone after the plan's end (:mod:`rfp_twin.planners.continuation`) before
     a target is replaced; 0 = none.
@@ -311,7 +313,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             progress(rounds, int(stuck.sum()))
         outcome = None
         to_replace = deadlocked_groups(geom, stuck) if stuck.any() else []
-        if use_search and to_replace and settings.reruns > 0 and settings.algorithm != "roadmap":
+        if use_search and to_replace and settings.reruns > 0 and settings.greedy:
             # cheapest first: the same run again, greedy-first Markov robots around the groups
             rr = _rerun(geom, run, start, goal, movable, settings, seed)
             rerun_s += rr.seconds
