@@ -18,7 +18,8 @@ hops through the Eq. 4 neighbour graph (plus the robots stuck in earlier attempt
 attempt with its own kernel seed. The first attempt in which every robot reaches its
 destination *without lengthening the first run's fold* is taken at once; otherwise the
 shortest complete attempt, once :data:`EXTRA_ATTEMPTS` more have been made after the
-first complete one (or the ladder is spent). A re-run is a whole stepwise run, so
+first complete one (or the ladder is spent, or :data:`PATIENCE` attempts in a row
+made no progress). A re-run is a whole stepwise run, so
 the step rule holds for every robot at every step and the plan is collision-free at the
 planning buffer for the same reason as any other (the pipeline's independent 2D check
 looks at it as at any plan). When no attempt completes, the attempt with the fewest stuck
@@ -48,6 +49,11 @@ LADDER = ((2, 0.8, 0.3), (2, 0.8, 0.3), (3, 0.9, 0.2), (1, 0.8, 0.3), (3, 0.8, 0
 
 #: Attempts made after the first complete one, looking for a shorter fold.
 EXTRA_ATTEMPTS = 2
+
+#: While no attempt is complete, the ladder stops after this many attempts in a row that
+#: leave no fewer robots stuck than the best so far (a group none of them untangles
+#: is left to the search; each attempt is a whole run, ~2 s at 12,871 robots).
+PATIENCE = 2
 
 #: An attempt stops after this many times the first run's steps: by then it has failed
 #: (a complete attempt that late would lengthen the fold by as much).
@@ -115,6 +121,7 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
     stuck = stuck_mask(first, goal, movable)
     seen = stuck.copy()              # robots stuck in the first run or any attempt
     fewest, fewest_stuck = first, int(stuck.sum())
+    stale = 0                        # attempts in a row without fewer stuck robots
     solved = None
     made = 0
     first_complete = -1
@@ -135,8 +142,13 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
                 break                # complete, and the fold is no longer than the plan's
         elif n_left < fewest_stuck:
             fewest, fewest_stuck = attempt, n_left
+            stale = 0
+        else:
+            stale += 1
         seen |= left
         if 0 <= first_complete <= k - EXTRA_ATTEMPTS:
+            break
+        if first_complete < 0 and stale >= PATIENCE:
             break
     return Rerun(solved, solved if solved is not None else fewest, made,
                  time.perf_counter() - clock)

@@ -11,7 +11,7 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import REACHED, build_paths
-from rfp_twin.planners.rerun import (EXTRA_ATTEMPTS, LADDER, STEP_CAP, grow_region,
+from rfp_twin.planners.rerun import (EXTRA_ATTEMPTS, LADDER, PATIENCE, STEP_CAP, grow_region,
                                      rerun_deadlocks)
 from rfp_twin.planners.solver import PlannerSettings
 from rfp_twin.planners.stepwise import StepRun, array_max_displacement, run_array
@@ -114,6 +114,15 @@ def test_when_nothing_completes_the_attempt_with_fewest_stuck_goes_on():
     # the plan's own Markov parameters stay outside the region
     greed, phobia, region, *_ = calls[0]
     assert np.all(greed[~region] == 0.9) and np.all(phobia[~region] == 0.3)
+
+
+def test_attempts_that_make_no_progress_stop_the_ladder():
+    first = _fake(100, [3, 4])
+    runs = [_fake(125, [3]), _fake(125, [3]), _fake(125, [3, 4]), _fake(125, [])]
+    run, calls = _ladder_of(runs)
+    rr = rerun_deadlocks(first, GOAL, MOVABLE, PAIRS, 1.0, 0.0, run, seed=0, attempts=8)
+    assert rr.attempts == 1 + PATIENCE == len(calls) and rr.solved is None
+    assert rr.fewest is runs[0]
 
 
 def test_nothing_better_than_the_first_run_returns_it():
