@@ -281,6 +281,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     n_replace_groups = 0
     n_search_failed = 0
     outcome = None
+    partial = False       # the search starts from a re-run attempt that left robots stuck
     memo: dict = {}       # search results by group and surroundings, across rounds
     continuation_s = 0.0
     n_continued_groups = n_continued_robots = 0
@@ -319,6 +320,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             rerun_s += rr.seconds
             tau_sr += rr.seconds
             rerun_attempts += rr.attempts
+            partial = rr.solved is None and rr.fewest is not run
             run = rr.fewest
             left = movable & ~np.all(np.abs(run.final - goal) < ANGLE_EPS, axis=1)
             resolved_groups = [g for g in to_replace if not left[g].any()]
@@ -331,9 +333,12 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             # generator (from this round's seed) leaves ``rng`` as "replace" uses it
             ptr, steps, angles = build_paths(n, run.ev_robot, run.ev_step, run.ev_angles, start,
                                              run.final, run.n_steps)
+            # after a partial re-run the stuck robots wandered until the attempt's cap:
+            # keeping that motion as their lead-in would delay the fold, so search from step 0
             outcome = resolve_groups(geom, PathSet.from_csr(ptr, steps, angles), run.n_steps,
                                      to_replace, start, goal, movable, md, settings.step_deg,
-                                     search_settings, np.random.default_rng([seed, 1]),
+                                     _with(search_settings, step0_first=True) if partial
+                                     else search_settings, np.random.default_rng([seed, 1]),
                                      memo=memo if settings.greedy else None)
             search_s += outcome.seconds
             to_replace = outcome.failed

@@ -11,8 +11,8 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import REACHED, build_paths
-from rfp_twin.planners.rerun import (EXTRA_ATTEMPTS, LADDER, PATIENCE, STEP_CAP, grow_region,
-                                     rerun_deadlocks)
+from rfp_twin.planners.rerun import (EXTRA_ATTEMPTS, LADDER, PATIENCE, STEP_CAP, arrival_steps,
+                                     grow_region, rerun_deadlocks)
 from rfp_twin.planners.solver import PlannerSettings
 from rfp_twin.planners.stepwise import StepRun, array_max_displacement, run_array
 from rfp_twin.validation.checker2d import check_trajectory
@@ -176,3 +176,11 @@ def test_robots_outside_a_markov_region_keep_the_greedy_rules():
     assert a.n_steps == b.n_steps
     np.testing.assert_array_equal(a.ev_robot, b.ev_robot)
     np.testing.assert_array_equal(a.ev_angles, b.ev_angles)
+
+
+def test_the_cap_counts_from_the_last_arrival_not_from_the_stuck_robots_moves():
+    # robots 0, 1 arrive at steps 40 and 60; robot 2 (stuck) moves until step 90
+    run = StepRun(np.zeros((3, 2)), 95, np.array([0, 1, 2, 2]), np.array([39, 59, 10, 89]),
+                  np.zeros((4, 2)), 0.0)
+    assert arrival_steps(run, np.array([False, False, True])) == 60
+    assert arrival_steps(run, np.array([True, True, True])) == 95      # nobody arrived
