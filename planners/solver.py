@@ -53,9 +53,9 @@ from rfp_twin.models.errors import PlanningError, SpecError, TargetError
 from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
 from rfp_twin.planners.continuation import continue_groups
 from rfp_twin.planners.offline import apply_offline
-from rfp_twin.planners.rerun import rerun_deadlocks
+from rfp_twin.planners.rerun import rerun_deadlocks, stuck_mask
 from rfp_twin.planners.resolve_search import PathSet, SearchResolveSettings, resolve_groups
-from rfp_twin.planners.stepwise import ANGLE_EPS, StepRun, array_max_displacement, run_array
+from rfp_twin.planners.stepwise import StepRun, array_max_displacement, run_array
 from rfp_twin.planners.targets import check_targets, random_targets
 
 ALGORITHMS = ("greedy", "markov", "roadmap")
@@ -76,7 +76,8 @@ class PlannerSettings:
     search fails) | "replace" (replace one target per group and re-plan, Sayres 2021
     Sect. 5.2). reruns : with ``resolve="search"`` and the greedy planner, re-runs at most
     with greedy-first Markov robots around the groups before the search
-    (:mod:`rfp_twin.planners.rerun`; 0 = none). search : options of the search (None = defaults). continuation :
+    (:mod:`rfp_twin.planners.rerun`; 0 = none). search : options of the search (None =
+    defaults). continuation :
     with ``resolve="search"``, Markov runs at most that let the groups the search could
     not resolve go on alone after the plan's end (:mod:`rfp_twin.planners.continuation`) before
     a target is replaced; 0 = none.
@@ -158,8 +159,7 @@ def _rerun(geom: ArrayGeometry, first: StepRun, start: np.ndarray, goal: np.ndar
     def run(greed, phobia, greedy_first, s, max_steps):
         return run_array(geom, start, goal, movable, step_deg=settings.step_deg,
                          max_steps=min(max_steps, settings.steps_limit), md=md, greed=greed,
-                         phobia=phobia,
-                         seed=s, greedy_first=greedy_first)
+                         phobia=phobia, seed=s, greedy_first=greedy_first)
 
     greedy = settings.greedy
     return rerun_deadlocks(first, goal, movable, geom.pairs, 1.0 if greedy else settings.greed,
@@ -297,7 +297,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             start, goal = fold, targets
         tau_sr += run.seconds
         pg_retries += run.retries
-        stuck = movable & ~np.all(np.abs(run.final - goal) < ANGLE_EPS, axis=1)
+        stuck = stuck_mask(run, goal, movable)
         if convergence is None:
             tau_pg = run.seconds
             convergence = 1.0 - stuck.sum() / max(1, movable.sum())
@@ -322,7 +322,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             rerun_attempts += rr.attempts
             partial = rr.solved is None and rr.fewest is not run
             run = rr.fewest
-            left = movable & ~np.all(np.abs(run.final - goal) < ANGLE_EPS, axis=1)
+            left = stuck_mask(run, goal, movable)
             resolved_groups = [g for g in to_replace if not left[g].any()]
             n_rerun_groups += len(resolved_groups)
             n_rerun_robots += int(sum(len(g) for g in resolved_groups))
