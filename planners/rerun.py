@@ -11,7 +11,7 @@ with probability ``greed``) only when the obvious move is blocked, or steps asid
 is at its destination and a neighbour encroaches (Eq. 10). Every other robot keeps its
 plan's rules. So the region moves as the plan did wherever it was free to, and jiggles
 only where it was locked: the fold is rarely longer than the first run's, while a full
-Markov region (random moves at every step) made it 10-70 % longer.
+Markov region (random moves at every step) made it 25-70 % longer (medians).
 
 Attempts climb a ladder (:data:`LADDER`): the region is the stuck robots grown by some
 hops through the Eq. 4 neighbour graph (plus the robots stuck in earlier attempts), each
@@ -19,11 +19,12 @@ attempt with its own kernel seed. The first attempt in which every robot reaches
 destination *without lengthening the first run's fold* is taken at once; otherwise the
 shortest complete attempt, once :data:`EXTRA_ATTEMPTS` more have been made after the
 first complete one (or the ladder is spent, or :data:`PATIENCE` attempts in a row
-made no progress). A re-run is a whole stepwise run, so
-the step rule holds for every robot at every step and the plan is collision-free at the
-planning buffer for the same reason as any other (the pipeline's independent 2D check
-looks at it as at any plan). When no attempt completes, the attempt with the fewest stuck
-robots is returned for the next resolver (the state-time search).
+made no progress). A re-run is a whole stepwise run, so the step rule holds for every
+robot at every step and the plan is collision-free at the planning buffer for the same
+reason as any other (the pipeline's independent 2D check looks at it as at any plan).
+When no attempt completes, the attempt with the fewest stuck robots is returned for the
+next resolver (the state-time search, which the solver then starts from step 0: the
+stuck robots' wandering is no lead-in worth keeping).
 
 Measured on the 500-robot SDSS-V layout, 20 seeded deadlocked cases at 2.0-3.5 mm
 (benchmarks/RESULTS.md, S10): one attempt 0.05-0.25 s; with a two-hop region and
