@@ -152,8 +152,9 @@ def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movab
 
 def _rerun(geom: ArrayGeometry, first: StepRun, start: np.ndarray, goal: np.ndarray,
            movable: np.ndarray, settings: PlannerSettings, seed: int):
-    """Re-runs of ``first`` with greedy-first Markov robots around its deadlocked groups
-    (:func:`rfp_twin.planners.rerun.rerun_deadlocks`)."""
+    """Re-runs of the greedy run ``first`` with greedy-first Markov robots around its
+    deadlocked groups (:func:`rfp_twin.planners.rerun.rerun_deadlocks`); every other robot
+    stays greedy."""
     md = array_max_displacement(geom, settings.step_deg)
 
     def run(greed, phobia, greedy_first, s, max_steps):
@@ -161,9 +162,7 @@ def _rerun(geom: ArrayGeometry, first: StepRun, start: np.ndarray, goal: np.ndar
                          max_steps=min(max_steps, settings.steps_limit), md=md, greed=greed,
                          phobia=phobia, seed=s, greedy_first=greedy_first)
 
-    greedy = settings.greedy
-    return rerun_deadlocks(first, goal, movable, geom.pairs, 1.0 if greedy else settings.greed,
-                           0.0 if greedy else settings.phobia, run, seed + 104729,
+    return rerun_deadlocks(first, goal, movable, geom.pairs, 1.0, 0.0, run, seed + 104729,
                            settings.reruns)
 
 
@@ -281,7 +280,6 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     n_replace_groups = 0
     n_search_failed = 0
     outcome = None
-    partial = False       # the search starts from a re-run attempt that left robots stuck
     memo: dict = {}       # search results by group and surroundings, across rounds
     continuation_s = 0.0
     n_continued_groups = n_continued_robots = 0
@@ -313,6 +311,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         if progress is not None:
             progress(rounds, int(stuck.sum()))
         outcome = None
+        partial = False   # this round's search starts from a re-run that left robots stuck
         to_replace = deadlocked_groups(geom, stuck) if stuck.any() else []
         if use_search and to_replace and settings.reruns > 0 and settings.greedy:
             # cheapest first: the same run again, greedy-first Markov robots around the groups

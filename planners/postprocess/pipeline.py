@@ -85,8 +85,7 @@ Verifier = Callable[..., Any]
 
 __all__ = ["Verifier", "postprocess", "DEFAULT_BUDGET_MM", "DEFAULT_TOLERANCE_DEG",
            "DEFAULT_PRESIMPLIFY_DEG", "DEFAULT_WIGGLE_PRESIMPLIFY_DEG", "DEFAULT_INTERACTION_MM",
-    "DEFAULT_MAX_POINTS", "WIGGLE_REVERSALS",
-           "ALIGNMENTS"]
+           "DEFAULT_MAX_POINTS", "WIGGLE_REVERSALS", "ALIGNMENTS"]
 
 #: sigma_smooth of Sayres 2021 Eq. 12, mm.
 DEFAULT_BUDGET_MM = 0.03
@@ -213,12 +212,10 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         window_steps = window_for_limits(spec.max_speed_deg_s, spec.max_accel_deg_s2, plan.step_deg)
     _check_args(budget_mm, buffer_mm, max_points, tolerance_deg, smoothing, window_steps,
                 interaction_mm, sample_s, grid_steps, align, backend, max_retries)
-    for name, value in (("wiggle_presimplify_deg", wiggle_presimplify_deg),):
+    for name, value in (("presimplify_deg", presimplify_deg),
+                        ("wiggle_presimplify_deg", wiggle_presimplify_deg)):
         if not (np.isfinite(value) and 0.0 <= value <= 10.0):
             raise field_error(SpecError, name, value, "[0, 10] deg", "postprocess")
-    if not (np.isfinite(presimplify_deg) and 0.0 <= presimplify_deg <= 10.0):
-        raise field_error(SpecError, "presimplify_deg", presimplify_deg, "[0, 10] deg",
-                          "postprocess")
     if plan.n_robots != geom.n_robots or not np.array_equal(plan.robot_ids, geom.robot_ids):
         raise field_error(SpecError, "plan.robot_ids", f"{plan.n_robots} robots",
                           f"the {geom.n_robots} robots of the layout, in layout order", "postprocess")
