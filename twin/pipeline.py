@@ -226,8 +226,9 @@ class Reconfiguration:
         ``(Trajectory, PostprocessReport | None, CheckReport)``.
 
         Post-processed trajectories are checked at buffer - budget, raw ones at the
-        planning buffer; the check the post-processing ran last on the whole trajectory
-        is that check (it is not run twice). ``progress(groups_timed, groups_to_time)``
+        planning buffer; the post-processing's own checks (the first of the whole
+        trajectory, each re-check of the pairs that changed merged in) are that check:
+        the whole trajectory is not checked twice. ``progress(groups_timed, groups_to_time)``
         follows the post-processing's timing of the groups."""
         o = self.options
         if o.raw:
@@ -236,10 +237,7 @@ class Reconfiguration:
         traj, post = postprocess(plan, self.geom, budget_mm=o.budget_mm, max_points=o.max_points,
                                  backend=o.timing_backend, verifier=check_trajectory,
                                  progress=progress)
-        check = post.final_check
-        if check is None:
-            check = check_trajectory(traj, self.spec, self.layout, post.verify_buffer_mm)
-        return traj, post, check
+        return traj, post, post.final_check
 
     def run(self, *, seed: int = 0, targets: np.ndarray | None = None,
             on_round: Callable[[int, int], None] | None = None,

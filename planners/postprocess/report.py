@@ -201,13 +201,13 @@ def slowest_groups(plan, groups: dict, narrowed: set, n: int = N_SLOWEST) -> lis
     return out
 
 
-def build_report(plan, traj, groups, labels, path, ledger, spec, buffer_mm, budget_mm,
+def build_report(plan, traj, groups, labels, path, check, spec, buffer_mm, budget_mm,
                  verify_buffer, smoothing, window_steps, window, tolerance_deg, max_points,
                  sample_s, interaction_mm, align, backend, rounds, retries, merges, tightened,
                  repaired, stages, clock) -> PostprocessReport:
     """The report of a finished run (``groups``: :class:`rfp_twin.planners.postprocess.groups.TimedGroup`
-    by label; ``ledger``: the :class:`rfp_twin.planners.postprocess.verification.ClearanceLedger`, or
-    None when nothing was verified; ``clock``: ``time.perf_counter()`` at the start)."""
+    by label; ``check``: the verifier's report on the whole trajectory (re-checks
+    merged in), or None when nothing was verified; ``clock``: ``time.perf_counter()`` at the start)."""
     vm = np.zeros(2)
     am = np.zeros(2)
     for ax in range(2):
@@ -256,8 +256,8 @@ def build_report(plan, traj, groups, labels, path, ledger, spec, buffer_mm, budg
         points_per_axis_max=int(counts.max()) if counts.size else 0,
         points_per_axis_mean=float(counts.mean()) if counts.size else 0.0,
         max_smoothing_deviation_deg=smooth_dev, max_simplify_deviation_deg=simp_dev,
-        verified=bool(ledger is not None and ledger.ok),
-        min_clearance_mm=ledger.min_clearance() if ledger is not None else math.nan,
+        verified=bool(check is not None and check.ok),
+        min_clearance_mm=float(check.min_clearance_mm) if check is not None else math.nan,
         check_rounds=rounds,
         max_slowdown=max((g.scale for g in groups.values()), default=1.0),
         retries=retries, merges=merges, tightened=tightened, collisions_repaired=repaired,

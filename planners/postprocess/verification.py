@@ -1,8 +1,7 @@
 """Verification rounds of the pipeline: what they checked, what to re-check, how to repair.
 
-:class:`ClearanceLedger` keeps the latest checked minimum distance of every robot pair
-and robot-fiducial pair over all rounds (a round re-checks only what changed), so the
-report's minimum clearance covers the whole trajectory. :func:`verify_neighbours` says
+A round re-checks only what changed (the verifier's reports merge the re-checks into
+the whole trajectory's check). :func:`verify_neighbours` says
 which robots the checker pairs (their neighbours are re-checked with them), and
 :func:`subset_trajectory` cuts the trajectory to them. :func:`repair` answers a failed
 round: a collision between two groups merges them (they met at different ``s``); a
@@ -26,7 +25,7 @@ from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.smoothing_local import WindowRegions
 from rfp_twin.planners.timing.grouping import pair_clearance
 
-__all__ = ["LOCAL_NARROWING", "ClearanceLedger", "verify_neighbours", "subset_trajectory", "repair", "narrow_locally",
+__all__ = ["LOCAL_NARROWING", "verify_neighbours", "subset_trajectory", "repair", "narrow_locally",
            "near_stretch"]
 
 #: Smallest window / tolerance that tightening goes down to.
@@ -47,41 +46,6 @@ LOCAL_NARROWING = math.sqrt(2.0)
 _NEAR_MM = 0.0
 #: Factor by which a colliding robot's window (then tolerance) shrinks per retry.
 _TIGHTEN = 2.0
-
-
-class ClearanceLedger:
-    """Latest checked minimum distance of every pair, over all verification rounds.
-
-    ``thr_robot``, ``thr_fid``: the distances at which a robot pair / a robot and a
-    fiducial touch (twice the verification buffer; the buffer plus the fiducial's), mm.
-    """
-
-    def __init__(self, thr_robot: float, thr_fid: float) -> None:
-        self.thr_robot = thr_robot
-        self.thr_fid = thr_fid
-        self.robot: dict[tuple[int, int], float] = {}
-        self.fid: dict[tuple[int, int], float] = {}
-        self.ok = False
-
-    def update(self, check) -> None:
-        """Record one round's checker report (its pairs, and its collisions' minima)."""
-        for (a, b), d in zip(check.pair_ids.tolist(), check.pair_min_distance_mm.tolist()):
-            self.robot[(min(a, b), max(a, b))] = d
-        for (a, f), d in zip(check.fiducial_pair_ids.tolist(),
-                             check.fiducial_min_distance_mm.tolist()):
-            self.fid[(a, f)] = d
-        for c in check.collisions:
-            table = self.robot if c.kind == "robot" else self.fid
-            key = (min(c.robot_a, c.other), max(c.robot_a, c.other)) if c.kind == "robot" \
-                else (c.robot_a, c.other)
-            table[key] = min(table.get(key, math.inf), c.min_distance_mm)
-        self.ok = check.ok
-
-    def min_clearance(self) -> float:
-        """Smallest clearance over every pair ever checked, mm (inf if none)."""
-        vals = [d - self.thr_robot for d in self.robot.values()]
-        vals += [d - self.thr_fid for d in self.fid.values()]
-        return float(min(vals)) if vals else math.inf
 
 
 def verify_neighbours(geom: ArrayGeometry, verify_buffer: float):

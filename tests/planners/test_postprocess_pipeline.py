@@ -53,6 +53,19 @@ def assert_firmware_ready(traj: Trajectory, rep, plan: Plan, geom: ArrayGeometry
     assert check.ok, check.table()
     assert check.min_clearance_mm > 0.0
     assert rep.min_clearance_mm == pytest.approx(check.min_clearance_mm, abs=0.01)
+    # the post-processing's own check of the whole trajectory (its first full check with
+    # each round's re-checks merged in) is what a full check of the result finds
+    final = rep.final_check
+    assert final.ok and final.n_robots == check.n_robots
+    for ids, dist, fids, fdist in ((final.pair_ids, final.pair_min_distance_mm,
+                                    check.pair_ids, check.pair_min_distance_mm),
+                                   (final.fiducial_pair_ids, final.fiducial_min_distance_mm,
+                                    check.fiducial_pair_ids, check.fiducial_min_distance_mm)):
+        mine = dict(zip(map(tuple, np.sort(ids, axis=1).tolist()), dist.tolist()))
+        full = dict(zip(map(tuple, np.sort(fids, axis=1).tolist()), fdist.tolist()))
+        assert mine.keys() == full.keys()
+        for key, d in full.items():
+            assert mine[key] == pytest.approx(d, abs=0.01 + 0.02 * d)
 
 
 @pytest.mark.parametrize("n_positions,buffer_mm,seed", [
@@ -67,6 +80,7 @@ def test_firmware_ready_and_collision_free(n_positions, buffer_mm, seed):
     _, plan = plan_random(geom, seed, step_deg=0.1)
     traj, rep = postprocess(plan, geom, verifier=check_trajectory)
     assert_firmware_ready(traj, rep, plan, geom)
+    assert rep.check_rounds == rep.retries + 1
     assert rep.duration_s >= plan.n_steps * plan.step_s * 0.9
     assert rep.points_per_axis_median < 40
     assert set(rep.stage_seconds) == {"smooth", "group", "time", "simplify", "verify", "total"}

@@ -1,4 +1,4 @@
-"""Verification bookkeeping (planners/postprocess/verification.py): ledger, re-check set, repair."""
+"""Verification bookkeeping (planners/postprocess/verification.py): re-check set, repair."""
 from __future__ import annotations
 
 from types import SimpleNamespace
@@ -9,37 +9,14 @@ import pytest
 import rfp_twin.planners.postprocess.verification as verification
 
 from rfp_twin.models.trajectory import Trajectory
-from rfp_twin.planners.postprocess.verification import (ClearanceLedger, narrow_locally, repair,
+from rfp_twin.planners.postprocess.verification import (narrow_locally, repair,
                                                         subset_trajectory, verify_neighbours)
 from rfp_twin.planners.smoothing_local import WindowRegions
 from tests.planners.conftest import make_geom
 
 
-def check(pairs, dists, fpairs=(), fdists=(), collisions=()):
-    """A checker report with only what the ledger reads."""
-    return SimpleNamespace(pair_ids=np.array(pairs, dtype=np.int64).reshape(-1, 2),
-                           pair_min_distance_mm=np.array(dists, dtype=float),
-                           fiducial_pair_ids=np.array(fpairs, dtype=np.int64).reshape(-1, 2),
-                           fiducial_min_distance_mm=np.array(fdists, dtype=float),
-                           collisions=list(collisions), ok=not collisions)
-
-
 def hit(a, other, kind="robot", d=0.5):
     return SimpleNamespace(robot_a=a, other=other, kind=kind, min_distance_mm=d)
-
-
-def test_ledger_keeps_the_latest_distance_of_every_pair():
-    led = ClearanceLedger(thr_robot=4.0, thr_fid=3.0)
-    assert led.min_clearance() == np.inf and not led.ok
-    led.update(check([[1, 2], [3, 2]], [5.0, 4.5], [[1, 90]], [3.8], [hit(2, 3, d=3.9)]))
-    assert led.robot == {(1, 2): 5.0, (2, 3): 3.9} and not led.ok
-    assert led.min_clearance() == pytest.approx(-0.1)
-    # a later round re-checks the pair (2, 3): its new distance replaces the old one
-    led.update(check([[2, 3]], [4.25]))
-    assert led.ok and led.robot[(2, 3)] == 4.25
-    assert led.min_clearance() == pytest.approx(0.25)
-    led.update(check([], [], [[1, 90]], [2.0], [hit(1, 90, "fiducial", 1.5)]))
-    assert led.fid[(1, 90)] == 1.5 and led.min_clearance() == pytest.approx(-1.5)
 
 
 def test_repair_merges_groups_and_tightens_robots_in_place():

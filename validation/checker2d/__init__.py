@@ -16,12 +16,15 @@ kernel
     The numba kernel: coarse grid, bisection, interval bound, collision runs.
 check
     :func:`check_trajectory`: candidate pairs (k-d tree), kernel inputs, the report.
+merge
+    :func:`merge_reports`: a full check and later re-checks of some pairs as one report.
 
 Independence: this package imports ``models`` (robot, layout and its columns, errors,
 the trajectory data type) and :mod:`rfp_twin.validation.numerics` (its own segment distance), never
 ``planners`` nor the planner's distance code :mod:`rfp_twin.models.geometry2d`.
 """
 from rfp_twin.validation.checker2d.check import check_trajectory
+from rfp_twin.validation.checker2d.merge import merge_reports
 from rfp_twin.validation.checker2d.report import CheckReport, Collision
 from rfp_twin.validation.checker2d.speeds import coarse_grid, speed_bounds_mm_s
 from rfp_twin.validation.numerics import segment_distance_np
@@ -30,6 +33,7 @@ __all__ = [
     "Collision",
     "CheckReport",
     "check_trajectory",
+    "merge_reports",
     "segment_distance_np",
     "speed_bounds_mm_s",
     "coarse_grid",

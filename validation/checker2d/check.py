@@ -206,4 +206,6 @@ def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_m
         fiducial_pair_ids=fpair_ids.astype(np.int64),
         fiducial_min_distance_mm=np.asarray(pmin[n_r:]),
         min_clearance_mm=clearance, collisions=collisions,
-        seconds=time.perf_counter() - clock)
+        seconds=time.perf_counter() - clock,
+        pair_threshold_mm=np.asarray(thr_all[:n_r], dtype=np.float64),
+        fiducial_threshold_mm=np.asarray(thr_all[n_r:], dtype=np.float64))

@@ -88,6 +88,12 @@ class CheckReport:
         Sorted by ``t_start``.
     seconds : float
         Wall time of the check (includes numba compilation on a first call), s.
+    pair_threshold_mm : (p,) float64
+        Each robot pair's collision threshold ``buffer_i + buffer_j``, mm.
+    fiducial_threshold_mm : (q,) float64
+        Each robot-obstacle pair's threshold, mm. Both are left out of ``to_dict``; they
+        let :func:`rfp_twin.validation.checker2d.merge.merge_reports` recompute the
+        clearance of a merged report.
     """
 
     buffer_mm: float
@@ -103,11 +109,20 @@ class CheckReport:
     min_clearance_mm: float
     collisions: list[Collision] = field(default_factory=list)
     seconds: float = 0.0
+    pair_threshold_mm: np.ndarray = field(default_factory=lambda: np.empty(0), repr=False)
+    fiducial_threshold_mm: np.ndarray = field(default_factory=lambda: np.empty(0), repr=False)
 
     @property
     def ok(self) -> bool:
         """True when no collision was found."""
         return not self.collisions
+
+    def merged_with(self, newer: "CheckReport") -> "CheckReport":
+        """This report with the pairs ``newer`` re-checked replaced by its results
+        (:func:`rfp_twin.validation.checker2d.merge.merge_reports`)."""
+        from rfp_twin.validation.checker2d.merge import merge_reports
+
+        return merge_reports(self, newer)
 
     def to_dict(self) -> dict:
         """JSON-serialisable summary (``inf`` becomes ``None``)."""
