@@ -1,35 +1,46 @@
-"""Deadlock resolution by re-running the plan with greedy-first Markov robots around the groups.
+"""Deadlock resolution by re-running the plan, locally, with greedy-first Markov robots around the groups.
 
 When the stepwise planner leaves groups of robots deadlocked, the cheapest thing that can
-untangle them is the planner itself, run again from the start with the robots in and
-around the groups made *greedy-first Markov* robots
+untangle them is the planner itself, run again around each group with the robots in and
+near it made *greedy-first Markov* robots
 (``greedy_first`` of :func:`rfp_twin.planners.stepwise.kernel.run_stepwise`): each takes
 its obvious move (one step towards its destination on each axis) whenever that move
 passes the step rule, exactly as a greedy robot does, and draws a Markov move (Sayres
 2021 Sect. 4.2: random candidate order, energy with probability ``phobia``, acceptance
 with probability ``greed``) only when the obvious move is blocked, or steps aside when it
-is at its destination and a neighbour encroaches (Eq. 10). Every other robot keeps its
-plan's rules. So the region moves as the plan did wherever it was free to, and jiggles
-only where it was locked: the fold is rarely longer than the first run's, while a full
-Markov region (random moves at every step) made it 25-70 % longer (medians).
+is at its destination and a neighbour encroaches (Eq. 10). So the region moves as the
+plan did wherever it was free to, and jiggles only where it was locked: the fold is
+rarely longer than the first run's, while a full Markov region (random moves at every
+step) made it 25-70 % longer (medians).
 
-Attempts climb a ladder (:data:`LADDER`): the region is the stuck robots grown by some
-hops through the Eq. 4 neighbour graph (plus the robots stuck in earlier attempts), each
-attempt with its own kernel seed. The first attempt in which every robot reaches its
-destination *without lengthening the first run's fold* is taken at once; otherwise the
-shortest complete attempt, once :data:`EXTRA_ATTEMPTS` more have been made after the
-first complete one (or the ladder is spent, or :data:`PATIENCE` attempts in a row
-made no progress). A re-run is a whole stepwise run, so the step rule holds for every
-robot at every step and the plan is collision-free at the planning buffer for the same
-reason as any other (the pipeline's independent 2D check looks at it as at any plan).
-When no attempt completes, the attempt with the fewest stuck robots is returned for the
-next resolver (the state-time search, which the solver then starts from step 0: the
-stuck robots' wandering is no lead-in worth keeping).
+**Local runs.** A re-run covers only a *patch*: the region, :data:`MARGIN_HOPS` more hops
+of greedy robots that may react to it, and a *ring* (every other neighbour of those)
+that replays the first run's motion step for step, each replayed move checked by the
+step rule against the patch (:func:`rfp_twin.planners.stepwise.run_array` with
+``robots`` and ``script``). The robots beyond the ring never see a change: the ring does
+exactly what they saw it do, and the patch's robots have no other neighbours. So the
+first run with the patch's motion swapped in satisfies the step rule at every step (a
+ring move that the patch leaves no room for fails the attempt). A patch costs its own
+size, not the array's (2-3 s a whole-array run at 12,871 robots, 0.03-0.09 s a patch of
+150-450 robots), and each group gets its own ladder: one stubborn group no longer fails
+the others. Groups are taken in turn, each ring replaying the motion as the groups
+before left it; the robots of patches solved before, and the other groups' stuck robots,
+replay too (a patch never re-plans them).
+
+Attempts climb a ladder (:data:`LADDER`): the region is the group's stuck robots
+grown by some hops through the Eq. 4 neighbour graph (plus the robots stuck in earlier
+attempts), each attempt with its own kernel seed. The first attempt in which every
+robot of the patch reaches its destination *without lengthening the first run's fold*
+is taken at once; otherwise the shortest complete attempt, once :data:`EXTRA_ATTEMPTS`
+more have been made after the first complete one (or the ladder is spent, or
+:data:`PATIENCE` attempts in a row made no progress). A group no attempt completes
+keeps its first-run motion for the next resolver (the state-time search). The
+pipeline's independent 2D check looks at the result as at any plan.
 
 Measured on the 500-robot SDSS-V layout, 20 seeded deadlocked cases at 2.0-3.5 mm
-(benchmarks/RESULTS.md, S10): one attempt 0.05-0.25 s; with a two-hop region and
-(greed 0.8, phobia 0.3), 17 of 20 cases resolved with the fold at 0.99-1.05 of the first
-run's (the search took 0.6-50 s a case, and its folds were 1.0-3.3 times the first run's).
+(benchmarks/RESULTS.md, S10, whole-array re-runs): with a two-hop region and (greed 0.8,
+phobia 0.3), 17 of 20 cases resolved with the fold at 0.99-1.05 of the first run's (the
+search took 0.6-50 s a case, and its folds were 1.0-3.3 times the first run's).
 
 Units: planner steps; wall time in s.
 """
@@ -41,6 +52,7 @@ from typing import Callable
 
 import numpy as np
 
+from rfp_twin.planners.plan import build_paths
 from rfp_twin.planners.stepwise import ANGLE_EPS, StepRun
 
 #: The attempts, in order: (hops the region grows from the stuck robots, greed, phobia)
@@ -52,9 +64,9 @@ LADDER = ((2, 0.8, 0.3), (2, 0.8, 0.3), (3, 0.9, 0.2), (1, 0.8, 0.3), (3, 0.8, 0
 EXTRA_ATTEMPTS = 2
 
 #: While no attempt is complete, the ladder stops after this many attempts in a row that
-#: leave no fewer robots stuck than the best so far (a group none of them untangles
-#: is left to the search; each attempt is a whole run, ~2 s at 12,871 robots).
-PATIENCE = 2
+#: leave no fewer robots stuck than the best so far, or are blocked (a group none of them
+#: untangles is left to the search, ~1 s a group; an attempt is a patch, ~0.05 s).
+PATIENCE = 4
 
 #: An attempt stops after this many times the first run's fold (:func:`arrival_steps`):
 #: by then it has failed (a complete attempt that late would lengthen the fold by as
@@ -64,9 +76,18 @@ PATIENCE = 2
 #: longer than the search alone; 1.05 lost complete attempts at 2.5 mm.
 STEP_CAP = 1.10
 
-#: One kernel run: (greed (n,), phobia (n,), greedy_first (n,) bool, seed, max_steps) ->
-#: StepRun.
-RunFn = Callable[[np.ndarray, np.ndarray, np.ndarray, int, int], StepRun]
+#: Hops of greedy robots between a region and the ring that replays the first run: room
+#: for the region's changes to settle before the ring, which cannot give way. Each
+#: attempt blocked by the ring widens it by one hop, up to :data:`MAX_MARGIN_HOPS`.
+MARGIN_HOPS = 2
+MAX_MARGIN_HOPS = 4
+
+#: One local kernel run: (robots (k,) int64 increasing, script (ptr, steps, angles) CSR
+#: paths of the ring robots in ``robots`` order (empty rows: the others), movable (k,),
+#: greed (k,), phobia (k,), greedy_first (k,) bool, seed, max_steps) -> StepRun over
+#: ``robots`` (``replay_blocked`` when a ring move found no room).
+RunFn = Callable[[np.ndarray, tuple, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int],
+                 StepRun]
 
 
 @dataclass
@@ -75,17 +96,28 @@ class Rerun:
 
     Attributes
     ----------
-    solved : StepRun or None, the complete attempt taken (every robot at its destination)
-    fewest : StepRun, the attempt with the fewest stuck robots (the first run when no
-        attempt did better); equal to ``solved`` when one was found
+    run : StepRun, the first run with the motion of every solved group's patch swapped
+        in (the first run itself when none was solved); the robots of unsolved groups
+        keep their first-run motion, and the run its length
+    solved : (n,) bool, the stuck robots of the groups solved
+    n_groups, n_solved : int, groups tried and solved
     attempts : int, kernel runs made
-    seconds : float, wall time of all of them
+    blocked : int, attempts stopped by a ring move that found no room
+    seconds : float, wall time of all of it
     """
 
-    solved: StepRun | None
-    fewest: StepRun
+    run: StepRun
+    solved: np.ndarray
+    n_groups: int
+    n_solved: int
     attempts: int
+    blocked: int
     seconds: float
+
+    @property
+    def complete(self) -> bool:
+        """Every group solved."""
+        return self.n_solved == self.n_groups
 
 
 def grow_region(pairs: np.ndarray, seed_mask: np.ndarray, hops: int) -> np.ndarray:
@@ -122,51 +154,159 @@ def arrival_steps(run: StepRun, stuck: np.ndarray) -> int:
     return int(min(run.n_steps, arrived.max() + 1))
 
 
-def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs: np.ndarray,
-                    greed: float, phobia: float, run: RunFn, seed: int,
-                    attempts: int = len(LADDER)) -> Rerun:
-    """Re-run the plan with greedy-first Markov regions around the robots ``first`` left stuck.
+def clusters(pairs: np.ndarray, stuck: np.ndarray, reach: int) -> list[np.ndarray]:
+    """The stuck robots (``stuck`` (n,) bool) in clusters: two are in one cluster when
+    their ``reach``-hop neighbourhoods touch (connected through the neighbour pairs).
+    Returns a list of (k,) int64 robot index arrays."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
 
-    first : the plan's run (it left some robots stuck); goal : (n, 2) deg, its destinations;
-    movable : (n,) bool; pairs : (p, 2) neighbour pairs; greed, phobia : every other
-    robot's parameters (1 and 0 for a greedy plan); run : one kernel run (:data:`RunFn`);
-    seed : base of the attempts' kernel seeds; attempts : at most that many runs (the
-    ladder is cycled with new seeds beyond its length).
+    zone = grow_region(pairs, stuck, reach)
+    n = stuck.size
+    both = zone[pairs[:, 0]] & zone[pairs[:, 1]]
+    graph = csr_matrix((np.ones(int(both.sum())), (pairs[both, 0], pairs[both, 1])), shape=(n, n))
+    _, labels = connected_components(graph, directed=False)
+    return [np.flatnonzero(stuck & (labels == c)) for c in np.unique(labels[stuck])]
+
+
+def ring_script(paths: tuple, robots: np.ndarray, ring: np.ndarray,
+                override: dict | None = None) -> tuple:
+    """CSR paths (ptr, steps, angles) of ``robots`` ((k,) int64) where ``ring`` ((k,) bool)
+    is True, empty rows elsewhere, from the whole array's CSR ``paths``; a robot in
+    ``override`` ({robot: (steps (m,), angles (m, 2))}) gets that path instead."""
+    ptr, steps, angles = paths
+    override = override or {}
+    rows_s, rows_a = [], []
+    counts = np.zeros(robots.size, dtype=np.int64)
+    for k in np.flatnonzero(ring):
+        r = int(robots[k])
+        st, an = override[r] if r in override else (steps[ptr[r]:ptr[r + 1]],
+                                                     angles[ptr[r]:ptr[r + 1]])
+        rows_s.append(st)
+        rows_a.append(an)
+        counts[k] = st.size
+    out = np.zeros(robots.size + 1, dtype=np.int64)
+    np.cumsum(counts, out=out[1:])
+    if not rows_s:
+        return out, np.zeros(0), np.zeros((0, 2))
+    return out, np.concatenate(rows_s), np.concatenate(rows_a)
+
+
+def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs: np.ndarray,
+                    paths: tuple, run: RunFn, seed: int, attempts: int = len(LADDER)) -> Rerun:
+    """Re-run each group of the robots that the greedy run ``first`` left stuck in its own
+    patch, with greedy-first Markov regions, and swap the solved patches in.
+
+    Groups are taken one after the other; each patch's ring replays the motion as it is
+    after the groups before (the first run with their patches swapped in), so patches may
+    overlap. Robots of the other groups still stuck are kept out of a patch's interior.
+
+    first : the plan's greedy run; goal : (n, 2) deg, its destinations; movable : (n,)
+    bool; pairs : (p, 2) neighbour pairs; paths : (ptr, steps, angles), ``first`` as CSR
+    paths (:func:`rfp_twin.planners.plan.build_paths`); run : one local kernel run
+    (:data:`RunFn`); seed : base of the attempts' kernel seeds; attempts : at most that
+    many runs a group (the ladder is cycled with new seeds beyond its length).
     """
     clock = time.perf_counter()
     stuck = stuck_mask(first, goal, movable)
     fold = arrival_steps(first, stuck)
     max_steps = max(1, int(np.ceil(STEP_CAP * fold)))
-    seen = stuck.copy()              # robots stuck in the first run or any attempt
-    fewest, fewest_stuck = first, int(stuck.sum())
-    stale = 0                        # attempts in a row without fewer stuck robots
-    solved = None
-    made = 0
+    ptr, _, angles = paths
+    start = angles[ptr[:-1]]
+    solved = np.zeros(stuck.size, dtype=bool)
+    override: dict = {}              # robot -> its path (steps, angles) from a solved patch
+    events: dict = {}                # robot -> its breakpoints (steps, angles) from it
+    final = first.final.copy()
+    made = blocked = n_solved = 0
+    length = fold
+    groups = clusters(pairs, stuck, 0)
+    for c, members in enumerate(groups):
+        own = np.zeros(stuck.size, dtype=bool)
+        own[members] = True
+        # other groups' stuck robots, and the robots of the patches solved before, replay
+        allowed = ~(stuck & ~solved & ~own)
+        allowed[list(override)] = False
+        best, tries, stops = _ladder(own, allowed, movable, pairs, paths, override, run, goal,
+                                     fold, max_steps, int(seed) + 1000003 * c, attempts)
+        made += tries
+        blocked += stops
+        if best is None:
+            continue
+        robots, inner, attempt, arrived = best
+        n_solved += 1
+        solved |= own
+        length = max(length, arrived)
+        sub_ptr, sub_steps, sub_angles = build_paths(
+            robots.size, attempt.ev_robot, attempt.ev_step, attempt.ev_angles, start[robots],
+            attempt.final, attempt.n_steps)
+        for k in np.flatnonzero(inner):
+            r = int(robots[k])
+            override[r] = (sub_steps[sub_ptr[k]:sub_ptr[k + 1]], sub_angles[sub_ptr[k]:sub_ptr[k + 1]])
+            mine = attempt.ev_robot == k
+            events[r] = (attempt.ev_step[mine], attempt.ev_angles[mine])
+            final[r] = attempt.final[k]
+    merged = first
+    if events:
+        old = ~np.isin(first.ev_robot, np.fromiter(events, dtype=np.int64))
+        rows = list(events)
+        merged = StepRun(
+            final, int(length if n_solved == len(groups) else max(length, first.n_steps)),
+            np.concatenate([first.ev_robot[old]]
+                           + [np.full(events[r][0].size, r, dtype=np.int64) for r in rows]),
+            np.concatenate([first.ev_step[old]] + [events[r][0] for r in rows]),
+            np.concatenate([first.ev_angles[old]] + [events[r][1] for r in rows]),
+            first.seconds, first.retries)
+    return Rerun(merged, solved, len(groups), n_solved, made, blocked,
+                 time.perf_counter() - clock)
+
+
+def _ladder(own, allowed, movable, pairs, paths, override, run, goal, fold, max_steps, seed,
+            attempts):
+    """The attempts on one group (robots ``own`` (n,) bool; patches within ``allowed``):
+    returns (best (robots, interior mask, StepRun, steps until its interior arrived) or
+    None, attempts made, attempts blocked by the ring)."""
+    seen = own.copy()                # robots stuck in the first run or any attempt
+    fewest = int(own.sum())
+    stale = made = blocked = 0
+    margin = MARGIN_HOPS
+    best = None
     first_complete = -1
     for k in range(attempts):
         hops, g, p = LADDER[k % len(LADDER)]
-        region = grow_region(pairs, seen, hops) & movable
-        attempt = run(np.where(region, g, greed), np.where(region, p, phobia),
-                      region.copy(), int(seed) + 7 * k + 1, max_steps)
+        region = grow_region(pairs, seen, hops) & movable & allowed
+        interior = grow_region(pairs, region, margin) & allowed
+        robots = np.flatnonzero(grow_region(pairs, interior, 1))
+        inner = interior[robots]
+        attempt = run(robots, ring_script(paths, robots, ~inner, override),
+                      movable[robots] & inner, np.where(region[robots], g, 1.0),
+                      np.where(region[robots], p, 0.0), region[robots].copy(),
+                      int(seed) + 7 * k + 1, max_steps)
         made += 1
-        left = stuck_mask(attempt, goal, movable)
-        n_left = int(left.sum())
-        if n_left == 0:
-            if solved is None or attempt.n_steps < solved.n_steps:
-                solved = attempt
+        if attempt.replay_blocked:
+            blocked += 1
+            margin = min(margin + 1, MAX_MARGIN_HOPS)   # more room before the ring
+            left = None
+        else:
+            at_goal = np.all(np.abs(attempt.final - goal[robots]) < ANGLE_EPS, axis=1)
+            left = movable[robots] & inner & ~at_goal
+        if left is not None and not left.any():
+            # its length: the interior's last arrival (the ring may replay on after it)
+            arrived = arrival_steps(attempt, ~inner)
+            if best is None or arrived < best[3]:
+                best = (robots, inner, attempt, arrived)
             if first_complete < 0:
                 first_complete = k
-            if attempt.n_steps <= fold:
+            if arrived <= fold:
                 break                # complete, and the fold is no longer than the plan's
-        elif n_left < fewest_stuck:
-            fewest, fewest_stuck = attempt, n_left
+        elif left is not None and int(left.sum()) < fewest:
+            fewest = int(left.sum())
             stale = 0
         else:
             stale += 1
-        seen |= left
+        if left is not None:
+            seen[robots[left]] = True
         if 0 <= first_complete <= k - EXTRA_ATTEMPTS:
             break
         if first_complete < 0 and stale >= PATIENCE:
             break
-    return Rerun(solved, solved if solved is not None else fewest, made,
-                 time.perf_counter() - clock)
+    return best, made, blocked

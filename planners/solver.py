@@ -8,8 +8,9 @@ When robots deadlock (groups connected through the Eq. 4 neighbour graph), two
 resolvers (``PlannerSettings.resolve``):
 
 * ``"search"`` (default): first, for the greedy planner, the stepwise run is repeated
-  with greedy-first Markov robots around the groups (:mod:`rfp_twin.planners.rerun`,
-  ``PlannerSettings.reruns`` attempts, a few hundredths of a second each; a deadlocked
+  around each group, in a patch of a few hundred robots inside a ring replaying the
+  first run, with greedy-first Markov robots (:mod:`rfp_twin.planners.rerun`, up to
+  ``PlannerSettings.reruns`` attempts a group, a few hundredths of a second each; a deadlocked
   Markov run has gone on to its step limit, so a re-run of it costs that much and is
   not tried); then each group left is re-planned by the state-time search of
   :mod:`rfp_twin.planners.resolve_search` (Sabater 2018), keeping every target; the other robots'
@@ -74,8 +75,8 @@ class PlannerSettings:
     resolve : "search" (re-plan each deadlocked group with the state-time search of
     :mod:`rfp_twin.planners.resolve_search`, keeping its targets; replace a target only where the
     search fails) | "replace" (replace one target per group and re-plan, Sayres 2021
-    Sect. 5.2). reruns : with ``resolve="search"`` and the greedy planner, re-runs at most
-    with greedy-first Markov robots around the groups before the search
+    Sect. 5.2). reruns : with ``resolve="search"`` and the greedy planner, local re-runs at
+    most a group with greedy-first Markov robots around it before the search
     (:mod:`rfp_twin.planners.rerun`; 0 = none). search : options of the search (None =
     defaults). continuation :
     with ``resolve="search"``, Markov runs at most that let the groups the search could
@@ -152,17 +153,20 @@ def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movab
 
 def _rerun(geom: ArrayGeometry, first: StepRun, start: np.ndarray, goal: np.ndarray,
            movable: np.ndarray, settings: PlannerSettings, seed: int):
-    """Re-runs of the greedy run ``first`` with greedy-first Markov robots around its
-    deadlocked groups (:func:`rfp_twin.planners.rerun.rerun_deadlocks`); every other robot
-    stays greedy."""
+    """Local re-runs of the greedy run ``first`` with greedy-first Markov robots around its
+    deadlocked groups (:func:`rfp_twin.planners.rerun.rerun_deadlocks`), each group's
+    patch inside a ring of robots replaying ``first``."""
     md = array_max_displacement(geom, settings.step_deg)
+    paths = build_paths(geom.n_robots, first.ev_robot, first.ev_step, first.ev_angles, start,
+                        first.final, first.n_steps)
 
-    def run(greed, phobia, greedy_first, s, max_steps):
-        return run_array(geom, start, goal, movable, step_deg=settings.step_deg,
+    def run(robots, script, mov, greed, phobia, greedy_first, s, max_steps):
+        return run_array(geom, start[robots], goal[robots], mov, step_deg=settings.step_deg,
                          max_steps=min(max_steps, settings.steps_limit), md=md, greed=greed,
-                         phobia=phobia, seed=s, greedy_first=greedy_first)
+                         phobia=phobia, seed=s, greedy_first=greedy_first, robots=robots,
+                         script=script)
 
-    return rerun_deadlocks(first, goal, movable, geom.pairs, 1.0, 0.0, run, seed + 104729,
+    return rerun_deadlocks(first, goal, movable, geom.pairs, paths, run, seed + 104729,
                            settings.reruns)
 
 
@@ -311,7 +315,6 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         if progress is not None:
             progress(rounds, int(stuck.sum()))
         outcome = None
-        partial = False   # this round's search starts from a re-run that left robots stuck
         to_replace = deadlocked_groups(geom, stuck) if stuck.any() else []
         if use_search and to_replace and settings.reruns > 0 and settings.greedy:
             # cheapest first: the same run again, greedy-first Markov robots around the groups
@@ -319,9 +322,8 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             rerun_s += rr.seconds
             tau_sr += rr.seconds
             rerun_attempts += rr.attempts
-            partial = rr.solved is None and rr.fewest is not run
-            run = rr.fewest
-            left = stuck_mask(run, goal, movable)
+            run = rr.run
+            left = stuck & ~rr.solved
             resolved_groups = [g for g in to_replace if not left[g].any()]
             n_rerun_groups += len(resolved_groups)
             n_rerun_robots += int(sum(len(g) for g in resolved_groups))
@@ -332,12 +334,9 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             # generator (from this round's seed) leaves ``rng`` as "replace" uses it
             ptr, steps, angles = build_paths(n, run.ev_robot, run.ev_step, run.ev_angles, start,
                                              run.final, run.n_steps)
-            # after a partial re-run the stuck robots wandered until the attempt's cap:
-            # keeping that motion as their lead-in would delay the fold, so search from step 0
             outcome = resolve_groups(geom, PathSet.from_csr(ptr, steps, angles), run.n_steps,
                                      to_replace, start, goal, movable, md, settings.step_deg,
-                                     _with(search_settings, step0_first=True) if partial
-                                     else search_settings, np.random.default_rng([seed, 1]),
+                                     search_settings, np.random.default_rng([seed, 1]),
                                      memo=memo if settings.greedy else None)
             search_s += outcome.seconds
             to_replace = outcome.failed

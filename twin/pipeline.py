@@ -71,8 +71,8 @@ class PlanOptions:
     direction : reverse (targets -> fold, played backwards) | forward
     resolve : search | replace | none (deadlocks left by the stepwise planners)
     max_steps, max_rounds : step limit [default 1000 deg / step] and resolution rounds
-    reruns : with resolve=search and the greedy planner, re-runs with greedy-first Markov
-        robots around the deadlocked groups before the search (0: straight to the search)
+    reruns : with resolve=search and the greedy planner, local re-runs a deadlocked group
+        with greedy-first Markov robots around it, before the search (0: straight to it)
     apf_gain, lambda3 : field gain (1/s) and CAPF cooperative weight
     raw : deliver the stepwise paths (constant speed, infinite acceleration), no
         post-processing; they are checked at the planning buffer

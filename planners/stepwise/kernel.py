@@ -134,7 +134,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                  fid_ptr, fid_idx, fid_xy, fid_buffer,
                  alpha_len, seg_start, seg_end, buffer, limits, step_deg, max_steps, md,
                  greed, phobia, seed, ev_robot, ev_step, ev_angles, cur, fid_end_xy=None,
-                 greedy_first=None):
+                 greedy_first=None, script=None):
     """Run GC/MC from ``start`` towards ``dest``: :func:`run_stepwise_arrays` on per-robot arrays.
 
     Parameters
@@ -167,10 +167,18 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         their obvious move (one step towards the destination on each axis) whenever it
         passes the step rule, and make a Markov move only when it is blocked or when
         they are at their destination [default: none; greedy robots always do]
+    script : (ptr (n+1,) int64, steps (k,) float64, angles (k, 2) float64) or None, a
+        recorded path (CSR, :func:`rfp_twin.planners.plan.build_paths`) for each robot that
+        *replays* one instead of planning: at step s it moves to its path's angles at s
+        (linear between breakpoints, the last ones after the path's end), each move
+        checked by the step rule against the robots around it; robots with an empty row
+        plan as usual. A replayed robot must be given ``movable`` False (it is not
+        waited for) and gets no breakpoints. [default: nobody replays]
 
     Returns
     -------
-    n_events : int, number of breakpoints written (-1 if the buffers overflowed)
+    n_events : int, number of breakpoints written (-1 if the buffers overflowed, -2 if
+        a replayed move failed the step rule: the robots around it left no room)
     n_steps : int, steps taken
     """
     n = base_xy.shape[0]
@@ -179,25 +187,32 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
     fid_end_xy = fid_xy if fid_end_xy is None else _per_item(fid_end_xy, m, (2,))
     greedy_first = np.zeros(n, np.bool_) if greedy_first is None else \
         np.ascontiguousarray(greedy_first, dtype=np.bool_)
+    if script is None:
+        script = (np.zeros(n + 1, np.int64), np.zeros(0), np.zeros((0, 2)))
+    script = (np.ascontiguousarray(script[0], dtype=np.int64),
+              np.ascontiguousarray(script[1], dtype=np.float64),
+              np.ascontiguousarray(script[2], dtype=np.float64))
     return run_stepwise_arrays(
         base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx,
         fid_xy, fid_end_xy, _per_item(fid_buffer, m), _per_item(alpha_len, n),
         _per_item(seg_start, n), _per_item(seg_end, n), _per_item(buffer, n),
         _per_item(limits, n, (4,)), step_deg, max_steps, md, _per_item(greed, n),
-        _per_item(phobia, n), seed, ev_robot, ev_step, ev_angles, cur, greedy_first)
+        _per_item(phobia, n), seed, ev_robot, ev_step, ev_angles, cur, greedy_first, script)
 
 
 @njit(cache=True)
 def run_stepwise_arrays(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                         fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
                         alpha_len, seg_start, seg_end, buffer, limits, step_deg, max_steps, md,
-                        greed, phobia, seed, ev_robot, ev_step, ev_angles, cur, greedy_first):
+                        greed, phobia, seed, ev_robot, ev_step, ev_angles, cur, greedy_first,
+                        script):
     """The compiled kernel of :func:`run_stepwise`, every geometry argument an array.
 
     Arguments as in :func:`run_stepwise`, except: ``fid_end_xy`` (m, 2) float64 mm (equal
     to ``fid_xy`` for a point obstacle), ``fid_buffer`` (m,) float64 mm, ``alpha_len``,
     ``seg_start``, ``seg_end``, ``buffer`` (n,) float64 mm, ``limits`` (n, 4) float64 deg,
-    ``greed``, ``phobia`` (n,) float64, ``greedy_first`` (n,) bool.
+    ``greed``, ``phobia`` (n,) float64, ``greedy_first`` (n,) bool, ``script`` the
+    3-tuple of arrays (an all-zero ptr: nobody replays).
     Returns (n_events, n_steps).
     """
     greedy, n_left, rng_state, par, rs, near, sched, scratch = new_state(
@@ -205,20 +220,57 @@ def run_stepwise_arrays(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dis
         step_deg, md, greed, phobia, seed, cur)
     arr = (base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
            alpha_len, seg_start, seg_end, buffer)
+    s_ptr, s_step, s_angles = script
     return step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, greedy_first,
                      n_left, rng_state, arr, par, rs, near, sched, scratch,
-                     (ev_robot, ev_step, ev_angles))
+                     (ev_robot, ev_step, ev_angles), (s_ptr, s_step, s_angles, s_ptr[:-1].copy()))
+
+
+@njit(cache=True, _nrt=False)
+def replay_end(s_ptr, s_step, s_angles):
+    """The last step at which a replayed robot moves (0 when none does)."""
+    end = 0
+    for i in range(s_ptr.shape[0] - 1):
+        for k in range(s_ptr[i + 1] - 1, s_ptr[i], -1):
+            if (abs(s_angles[k, 0] - s_angles[k - 1, 0]) >= ANGLE_EPS
+                    or abs(s_angles[k, 1] - s_angles[k - 1, 1]) >= ANGLE_EPS):
+                end = max(end, int(np.ceil(s_step[k])))
+                break
+    return end
+
+
+@njit(cache=True, _nrt=False)
+def replay_target(i, step, cur, s_ptr, s_step, s_angles, s_at, cand):
+    """Replayed robot i's recorded angles at ``step`` (the path's last ones after its end)
+    into ``cand[0, :2]``; ``s_at[i]`` follows its path segment. Returns True when they
+    differ from where it stands (``cur``), i.e. it moves this step."""
+    hi = s_ptr[i + 1] - 1
+    k = s_at[i]
+    while k < hi and s_step[k + 1] <= step:
+        k += 1
+    s_at[i] = k
+    if k >= hi:
+        ta = s_angles[hi, 0]
+        tb = s_angles[hi, 1]
+    else:
+        f = (step - s_step[k]) / (s_step[k + 1] - s_step[k])
+        ta = s_angles[k, 0] + f * (s_angles[k + 1, 0] - s_angles[k, 0])
+        tb = s_angles[k, 1] + f * (s_angles[k + 1, 1] - s_angles[k, 1])
+    cand[0, 0] = ta
+    cand[0, 1] = tb
+    return abs(ta - cur[i, 0]) >= ANGLE_EPS or abs(tb - cur[i, 1]) >= ANGLE_EPS
 
 
 @njit(cache=True, _nrt=False)
 def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, greedy_first, n_left,
-              rng_state, arr, par, rs, near, sched, scratch, ev):
+              rng_state, arr, par, rs, near, sched, scratch, ev, script):
     """The step loop of :func:`run_stepwise`: every robot, step after step, until all are home.
 
     Arguments as in :func:`run_stepwise_arrays`, and the state of
     :func:`rfp_twin.planners.stepwise.state.new_state`; ``cur`` (n, 2) deg is updated in
-    place and ``ev`` = (ev_robot, ev_step, ev_angles) receives the breakpoints. Compiled
-    without numba's runtime: it must not create arrays. Returns (n_events, n_steps).
+    place and ``ev`` = (ev_robot, ev_step, ev_angles) receives the breakpoints.
+    ``script`` = (ptr, steps, angles, at (n,) int64 each robot's current path segment).
+    Compiled without numba's runtime: it must not create arrays. Returns (n_events, n_steps).
     """
     (base_xy, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
      alpha_len, seg_start, seg_end, buffer) = arr
@@ -226,22 +278,33 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, gree
     near_k, near_col, near_cnt, near_until = near
     last, home, asleep_at, moved_at, home_until, free_until = sched
     cand, cost, score_of, order = scratch
+    s_ptr, s_step, s_angles, s_at = script
     n = base_xy.shape[0]
+    s_until = replay_end(s_ptr, s_step, s_angles)
     n_moves = 1
     n_ev = 0
     step = 0
     n_awake = 1
     moves_before = -1
-    while step < max_steps and n_left > 0:
-        # quiescent: nothing moved and nobody awake -> nothing can ever change
-        if n_moves == moves_before and n_awake == 0:
+    # replays go on to their end even once every planned robot is home: each of their
+    # moves is checked against where the planned robots stand
+    while step < max_steps and (n_left > 0 or step < s_until):
+        # quiescent: nothing moved, nobody awake and no replay to come -> nothing can change
+        if n_moves == moves_before and n_awake == 0 and step >= s_until:
             break
         moves_before = n_moves
         n_awake = 0
         step += 1
         for i in range(n):
             gc = greedy[i]
-            if not movable[i] or (gc and home[i]) or step < home_until[i]:
+            replayed = s_ptr[i + 1] > s_ptr[i]
+            if replayed:
+                # its recorded move of this step goes to cand[0] and is checked as an
+                # obvious move is (below); nothing to do while it stands
+                if step > s_until or not replay_target(i, step, cur, s_ptr, s_step, s_angles,
+                                                       s_at, cand):
+                    continue
+            elif not movable[i] or (gc and home[i]) or step < home_until[i]:
                 continue
             if asleep_at[i] >= 0:
                 if not woken(i, asleep_at[i], nbr_ptr, nbr_idx, moved_at):
@@ -261,7 +324,7 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, gree
             b_lo = limits[i, 2]
             b_hi = limits[i, 3]
 
-            if home[i]:
+            if home[i] and not replayed:
                 # MC only (Eq. 10): stay unless a neighbour encroaches
                 if not encroached(i, 3.0 * md, step, arr, par, rs, home_until):
                     asleep_at[i] = n_moves
@@ -273,11 +336,21 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, gree
             free = False
             ka_best = _sign(da - ca)
             kb_best = _sign(db - cb)
-            if gc or (greedy_first[i] and not home[i]):
+            if gc or (greedy_first[i] and not home[i]) or replayed:
                 # the obvious move (best step on each axis) has the least cost: try it first
-                cand[0, 0] = _toward(ca, da, ka_best, step_deg, a_lo, a_hi)
-                cand[0, 1] = _toward(cb, db, kb_best, step_deg, b_lo, b_hi)
+                if not replayed:
+                    cand[0, 0] = _toward(ca, da, ka_best, step_deg, a_lo, a_hi)
+                    cand[0, 1] = _toward(cb, db, kb_best, step_deg, b_lo, b_hi)
                 best = try_cand(cand, 0, i, ca, cb, bx, by, s1, md, True, arr, par, rs, near)
+            if replayed:
+                if best < 0:
+                    return -2, step      # the robots around it left its recorded move no room
+                cur[i, 0] = cand[0, 0]
+                cur[i, 1] = cand[0, 1]
+                commit(rs, cand, i, 0)
+                n_moves += 1
+                moved_at[i] = n_moves
+                continue
             if best < 0:
                 fill_candidates(cand, cost, order, ca, cb, da, db, step_deg, a_lo, a_hi, b_lo, b_hi)
                 obvious = 3 * (ka_best + 1) + kb_best + 1

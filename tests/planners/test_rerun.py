@@ -11,8 +11,8 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import REACHED, build_paths
-from rfp_twin.planners.rerun import (EXTRA_ATTEMPTS, LADDER, PATIENCE, STEP_CAP, arrival_steps,
-                                     grow_region, rerun_deadlocks)
+from rfp_twin.planners.rerun import (EXTRA_ATTEMPTS, LADDER, MARGIN_HOPS, PATIENCE, STEP_CAP,
+                                     arrival_steps, clusters, grow_region, rerun_deadlocks)
 from rfp_twin.planners.solver import PlannerSettings
 from rfp_twin.planners.stepwise import StepRun, array_max_displacement, run_array
 from rfp_twin.validation.checker2d import check_trajectory
@@ -33,7 +33,7 @@ def test_the_rerun_keeps_every_target_without_the_search(deadlock_547):
     m = plan.metrics
     assert first.metrics["n_deadlocked"] >= 2 and m["convergence"] < 1.0
     assert m["n_rerun_groups"] >= 2 and m["n_rerun_robots"] == first.metrics["n_deadlocked"]
-    assert 1 <= m["rerun_attempts"] <= len(LADDER) and m["rerun_s"] > 0.0
+    assert 1 <= m["rerun_attempts"] <= 2 * len(LADDER) and m["rerun_s"] > 0.0
     assert m["n_search_groups"] == 0 and m["search_s"] == 0.0 and m["n_replaced"] == 0
     assert plan.complete and np.all(plan.status == REACHED)
     np.testing.assert_allclose(plan.end(), targets, atol=1e-9)
@@ -55,81 +55,125 @@ def test_grow_region_follows_the_neighbour_pairs():
     assert not seed[[0, 1, 3, 4]].any()        # the input is not modified
 
 
-def _fake(n_steps: int, stuck: list[int], n: int = 8) -> StepRun:
-    """A run of n robots whose goal is (0, 0): ``stuck`` ones end at (1, 1)."""
-    final = np.zeros((n, 2))
-    final[stuck] = 1.0
-    return StepRun(final, n_steps, np.zeros(0, np.int64), np.zeros(0, np.int64),
-                   np.zeros((0, 2)), 0.0)
+N_CHAIN = 24
+PAIRS = np.array([[i, i + 1] for i in range(N_CHAIN - 1)])     # a chain of robots
+GOAL = np.zeros((N_CHAIN, 2))
+MOVABLE = np.ones(N_CHAIN, bool)
 
 
-def _ladder_of(runs: list[StepRun]):
-    """A run function that hands out ``runs`` in turn and records its calls."""
+def _fake(n_steps: int, stuck: list[int], robots=None) -> StepRun:
+    """A run of ``robots`` (default: the whole chain) whose goal is (0, 0): the ``stuck``
+    ones (chain indices) end at (1, 1); one breakpoint per robot, at its last step."""
+    robots = np.arange(N_CHAIN) if robots is None else robots
+    final = np.zeros((robots.size, 2))
+    final[np.isin(robots, stuck)] = 1.0
+    return StepRun(final, n_steps, np.arange(robots.size),
+                   np.full(robots.size, n_steps - 1, np.int64), np.full((robots.size, 2), 5.0),
+                   0.0)
+
+
+def _paths(run: StepRun):
+    return build_paths(N_CHAIN, run.ev_robot, run.ev_step, run.ev_angles,
+                       np.full((N_CHAIN, 2), 9.0), run.final, run.n_steps)
+
+
+def _ladder_of(results: list):
+    """A local run function that hands out ``(n_steps, stuck chain indices)`` in turn (or
+    "blocked") as runs of the patch it is given, and records its calls."""
     calls = []
 
-    def run(greed, phobia, greedy_first, seed, max_steps):
-        calls.append((greed.copy(), phobia.copy(), greedy_first.copy(), seed, max_steps))
-        return runs[len(calls) - 1]
+    def run(robots, script, movable, greed, phobia, greedy_first, seed, max_steps):
+        calls.append(dict(robots=robots.copy(), script=script, movable=movable.copy(),
+                          greed=greed.copy(), phobia=phobia.copy(), region=greedy_first.copy(),
+                          seed=seed, max_steps=max_steps))
+        got = results[len(calls) - 1]
+        if got == "blocked":
+            out = _fake(10, [], robots)
+            out.replay_blocked = True
+            return out
+        return _fake(got[0], got[1], robots)
     return run, calls
 
 
-PAIRS = np.array([[i, i + 1] for i in range(7)])     # a chain of 8 robots
-GOAL = np.zeros((8, 2))
-MOVABLE = np.ones(8, bool)
+def _rerun(first, run, **kw):
+    return rerun_deadlocks(first, GOAL, MOVABLE, PAIRS, _paths(first), run, **kw)
 
 
-def test_the_first_complete_attempt_no_longer_than_the_plan_is_taken_at_once():
-    first = _fake(100, [3])
-    run, calls = _ladder_of([_fake(110, []), _fake(100, []), _fake(90, [])])
-    rr = rerun_deadlocks(first, GOAL, MOVABLE, PAIRS, 1.0, 0.0, run, seed=7)
-    assert rr.attempts == 2 and len(calls) == 2
-    assert rr.solved.n_steps == 100 and rr.fewest is rr.solved
-    greed, phobia, region, seed, max_steps = calls[0]
-    hops = LADDER[0][0]
-    assert np.flatnonzero(region).tolist() == list(range(3 - hops, 4 + hops))   # robot 3, grown
-    assert np.all(greed[region] == LADDER[0][1]) and np.all(greed[~region] == 1.0)
-    assert np.all(phobia[region] == LADDER[0][2]) and np.all(phobia[~region] == 0.0)
-    assert max_steps == int(np.ceil(STEP_CAP * 100))
-    assert len({c[3] for c in calls}) == 2                       # a new seed per attempt
+def test_a_patch_is_the_region_its_margin_and_a_replaying_ring():
+    first = _fake(100, [12])
+    run, calls = _ladder_of([(110, []), (100, []), (90, [])])
+    rr = _rerun(first, run, seed=7)
+    assert rr.attempts == 2 and len(calls) == 2 and rr.complete and rr.n_groups == 1
+    hops, g, p = LADDER[0]
+    c = calls[0]
+    region = list(range(12 - hops, 13 + hops))
+    reach = hops + MARGIN_HOPS
+    assert c["robots"].tolist() == list(range(12 - reach - 1, 13 + reach + 1))
+    inner = np.isin(c["robots"], range(12 - reach, 13 + reach))
+    assert c["robots"][c["region"]].tolist() == region
+    assert np.all(c["greed"][c["region"]] == g) and np.all(c["greed"][~c["region"]] == 1.0)
+    assert np.all(c["phobia"][c["region"]] == p) and np.all(c["phobia"][~c["region"]] == 0.0)
+    # only the interior plans; the two ring robots replay the first run's paths
+    assert c["movable"].tolist() == inner.tolist()
+    ptr, steps, angles = c["script"]
+    rows = np.diff(ptr)
+    assert np.all(rows[inner] == 0) and np.all(rows[~inner] == 3)      # start, step 1, end
+    np.testing.assert_array_equal(steps[:3], [0.0, 99.0, 100.0])
+    assert c["max_steps"] == int(np.ceil(STEP_CAP * 100))
+    assert len({c["seed"] for c in calls}) == 2                   # a new seed per attempt
+    # the accepted patch's interior is swapped in: its breakpoints, the rest the first run's
+    assert rr.solved.tolist() == (np.arange(N_CHAIN) == 12).tolist()
+    assert np.array_equal(np.sort(rr.run.ev_robot), np.arange(N_CHAIN))
+    assert rr.run.n_steps == 100 and np.all(rr.run.final == 0.0)
 
 
 def test_without_an_early_accept_the_shortest_complete_attempt_wins():
-    first = _fake(100, [3])
-    run, _ = _ladder_of([_fake(125, [2]), _fake(120, []), _fake(125, [2]), _fake(110, []),
-                         _fake(105, [])])
-    rr = rerun_deadlocks(first, GOAL, MOVABLE, PAIRS, 1.0, 0.0, run, seed=0, attempts=8)
+    first = _fake(100, [12])
+    run, _ = _ladder_of([(125, [11]), (120, []), (125, [11]), (110, []), (105, [])])
+    rr = _rerun(first, run, seed=0, attempts=8)
     # EXTRA_ATTEMPTS more after the first complete one (the second attempt), then stop
     assert rr.attempts == 2 + EXTRA_ATTEMPTS == 4
-    assert rr.solved.n_steps == 110 and rr.fewest is rr.solved
+    assert rr.complete and rr.run.n_steps == 110
 
 
-def test_when_nothing_completes_the_attempt_with_fewest_stuck_goes_on():
-    first = _fake(100, [6, 7])
-    runs = [_fake(125, [0, 6, 7]), _fake(125, [7]), _fake(125, [3, 7])]
+def test_when_nothing_completes_the_first_run_stands_and_stuck_robots_join_the_region():
+    first = _fake(100, [12, 13])
+    run, calls = _ladder_of([(125, [9, 12, 13]), (125, [13]), (125, [11, 13])])
+    rr = _rerun(first, run, seed=0, attempts=3)
+    assert not rr.complete and rr.n_solved == 0 and rr.attempts == 3
+    assert rr.run is first and not rr.solved.any()
+    # robot 9, stuck only in the first attempt, is in the region of the next ones
+    assert 9 not in calls[0]["robots"][calls[0]["region"]]
+    assert 9 in calls[1]["robots"][calls[1]["region"]]
+
+
+def test_attempts_that_make_no_progress_or_are_blocked_stop_the_ladder():
+    first = _fake(100, [12, 13])
+    runs = [(125, [12]), "blocked", (125, [12, 13]), (125, [12]), (125, [12]), (125, [])]
     run, calls = _ladder_of(runs)
-    rr = rerun_deadlocks(first, GOAL, MOVABLE, PAIRS, 0.9, 0.3, run, seed=0, attempts=3)
-    assert rr.solved is None and rr.fewest is runs[1] and rr.attempts == 3
-    # robot 0, stuck only in the first attempt, is in the region of the next ones
-    assert not calls[0][2][0] and calls[1][2][0] and calls[2][2][0]
-    # the plan's own Markov parameters stay outside the region
-    greed, phobia, region, *_ = calls[0]
-    assert np.all(greed[~region] == 0.9) and np.all(phobia[~region] == 0.3)
+    rr = _rerun(first, run, seed=0, attempts=8)
+    assert rr.attempts == 1 + PATIENCE == len(calls) and rr.n_solved == 0
+    assert rr.blocked == 1 and rr.run is first
+    # a blocked attempt widens the margin before the ring by one hop
+    hops = LADDER[2][0]
+    lo, hi = 12 - hops - MARGIN_HOPS - 1, 13 + hops + MARGIN_HOPS + 1
+    assert calls[2]["robots"].tolist() == list(range(lo - 1, hi + 2))
 
 
-def test_attempts_that_make_no_progress_stop_the_ladder():
-    first = _fake(100, [3, 4])
-    runs = [_fake(125, [3]), _fake(125, [3]), _fake(125, [3, 4]), _fake(125, [])]
-    run, calls = _ladder_of(runs)
-    rr = rerun_deadlocks(first, GOAL, MOVABLE, PAIRS, 1.0, 0.0, run, seed=0, attempts=8)
-    assert rr.attempts == 1 + PATIENCE == len(calls) and rr.solved is None
-    assert rr.fewest is runs[0]
-
-
-def test_nothing_better_than_the_first_run_returns_it():
-    first = _fake(100, [3])
-    run, _ = _ladder_of([_fake(125, [2, 3]), _fake(125, [1, 3])])
-    rr = rerun_deadlocks(first, GOAL, MOVABLE, PAIRS, 1.0, 0.0, run, seed=0, attempts=2)
-    assert rr.solved is None and rr.fewest is first
+def test_clusters_far_apart_get_their_own_ladders_and_patches():
+    first = _fake(100, [2, 21])
+    # the cluster of robot 2 is solved at once; the one of 21 never
+    run, calls = _ladder_of([(98, []), (125, [21]), (125, [21]), (125, [21])])
+    rr = _rerun(first, run, seed=0, attempts=3)
+    assert rr.n_groups == 2 and rr.n_solved == 1 and not rr.complete
+    assert rr.solved.tolist() == (np.arange(N_CHAIN) == 2).tolist()
+    assert 2 in calls[0]["robots"] and 21 not in calls[0]["robots"]
+    assert all(21 in c["robots"] and 2 not in c["robots"] for c in calls[1:])
+    # the unsolved cluster keeps its first-run motion, so the run keeps its length
+    assert rr.run.n_steps == first.n_steps and rr.run.final[21].tolist() == [1.0, 1.0]
+    assert rr.run.final[2].tolist() == [0.0, 0.0]
+    assert clusters(PAIRS, np.isin(np.arange(N_CHAIN), [2, 21]), 4)[0].tolist() == [2]
+    assert len(clusters(PAIRS, np.isin(np.arange(N_CHAIN), [2, 21]), 9)) == 1
 
 
 def test_reruns_must_not_be_negative():

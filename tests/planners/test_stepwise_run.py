@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from rfp_twin.planners.plan import build_paths
+from rfp_twin.planners.rerun import grow_region
 from rfp_twin.planners.stepwise import ANGLE_EPS, max_displacement
 from rfp_twin.planners.stepwise.run import run_array
 from rfp_twin.planners.targets import random_targets
@@ -84,3 +85,79 @@ def test_paths_are_the_kernel_states_at_every_step(problem, greed, phobia):
         np.testing.assert_allclose(at_k, part.final, atol=1e-9)
         arrived += int(np.sum(np.all(np.abs(part.final - fold) < ANGLE_EPS, axis=1)))
     assert arrived > 0          # some robots wait at their destination before the end
+
+
+def _csr_rows(paths, robots, keep):
+    """CSR ``paths`` of ``robots`` where ``keep``, empty rows elsewhere (a replay script)."""
+    ptr, steps, angles = paths
+    counts = np.where(keep, ptr[robots + 1] - ptr[robots], 0)
+    out = np.concatenate([[0], np.cumsum(counts)])
+    take = np.concatenate([np.arange(ptr[r], ptr[r + 1]) for r in robots[keep]])
+    return out, steps[take], angles[take]
+
+
+def _at_steps(paths, i, t):
+    ptr, steps, angles = paths
+    st, an = steps[ptr[i]:ptr[i + 1]], angles[ptr[i]:ptr[i + 1]]
+    return np.column_stack([np.interp(t, st, an[:, 0]), np.interp(t, st, an[:, 1])])
+
+
+def test_a_patch_inside_a_replaying_ring_repeats_the_whole_run():
+    """Greedy is deterministic: a run of the centre robot and its neighbours, with the
+    robots around them replaying the whole run's paths, moves its interior exactly as the
+    whole run did, in a fraction of the robots."""
+    geom = make_geom(91, 2.5)
+    spec = geom.spec
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), 0.5)
+    targets = random_targets(geom, np.random.default_rng(8), margin_mm=md)
+    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
+    kw = dict(step_deg=0.5, max_steps=2000, md=md, greed=1.0, phobia=0.0, seed=1)
+    movable = np.ones(geom.n_robots, bool)
+    whole = run_array(geom, targets, fold, movable, **kw)
+    same = run_array(geom, targets, fold, movable, robots=np.arange(geom.n_robots), **kw)
+    np.testing.assert_array_equal(same.ev_angles, whole.ev_angles)
+    paths = build_paths(geom.n_robots, whole.ev_robot, whole.ev_step, whole.ev_angles, targets,
+                        whole.final, whole.n_steps)
+    centre = np.zeros(geom.n_robots, bool)
+    centre[np.argmin(np.hypot(*geom.base_xy.T))] = True
+    inner_all = grow_region(geom.pairs, centre, 1)             # the centre and its neighbours
+    robots = np.flatnonzero(grow_region(geom.pairs, inner_all, 1))
+    inner = inner_all[robots]
+    assert 7 <= inner.sum() < (~inner).sum() < geom.n_robots // 2
+    local = run_array(geom, targets[robots], fold[robots], inner.copy(), robots=robots,
+                      script=_csr_rows(paths, robots, ~inner), **kw)
+    assert not local.replay_blocked and local.n_steps <= whole.n_steps
+    mine = build_paths(robots.size, local.ev_robot, local.ev_step, local.ev_angles,
+                       targets[robots], local.final, local.n_steps)
+    t = np.arange(whole.n_steps + 1)
+    moved = 0
+    for k in np.flatnonzero(inner):
+        np.testing.assert_allclose(_at_steps(mine, k, t), _at_steps(paths, robots[k], t), atol=1e-9)
+        moved += np.ptp(_at_steps(mine, k, t)) > 1.0
+    assert moved >= 5
+    assert not np.any(local.ev_robot[~inner[local.ev_robot]] >= 0)   # the ring records nothing
+
+
+def test_a_replayed_move_into_a_robot_that_stands_there_stops_the_run():
+    """Robot 1 replays a half turn of its stretched arm through the direction of robot 0,
+    which stands with its arm stretched towards robot 1: the run stops at the step whose
+    replayed move fails the step rule. The half turn on the far side goes through."""
+    geom = make_geom(7, 2.0)
+    spec = geom.spec
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), 1.0)
+    robots = np.array([0, 1])
+    towards_1 = float(np.degrees(np.arctan2(*(geom.base_xy[1] - geom.base_xy[0])[::-1]))) % 360.0
+
+    def run(stand, through):
+        """Robot 0 at ``stand``; robot 1's alpha turns 180 deg through ``through``."""
+        a0 = (through - 90.0) % 360.0
+        script = (np.array([0, 0, 2]), np.array([0.0, 180.0]), np.array([[a0, 0.0], [a0 + 180.0, 0.0]]))
+        start = np.array([stand, [a0, 0.0]])
+        return run_array(geom, start, start, np.array([False, False]), step_deg=1.0,
+                         max_steps=400, md=md, greed=1.0, phobia=0.0, seed=0, robots=robots,
+                         script=script)
+
+    hit = run([towards_1, 0.0], (towards_1 + 180.0) % 360.0)
+    assert hit.replay_blocked and 45 < hit.n_steps < 135
+    free = run(list(spec.fold_deg), towards_1)
+    assert not free.replay_blocked and free.n_steps == 180

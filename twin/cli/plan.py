@@ -69,8 +69,9 @@ def plan(
                                 "re-plan each group left by state-time search, keeping its "
                                 "targets; replace a target only where that fails) | replace (new "
                                 "target for one robot per group, Sayres 2021) | none."),
-    reruns: int = typer.Option(8, help="--resolve search, greedy: re-runs with greedy-first Markov "
-                               "robots around the groups before the search, >= 0 (0: none)."),
+    reruns: int = typer.Option(8, help="--resolve search, greedy: local re-runs a deadlocked group, "
+                               "greedy-first Markov robots around it, before the search, >= 0 "
+                               "(0: none)."),
     apf_gain: float = typer.Option(1.0, help="apf/capf: field gain u = -gain J^T grad psi, 1/s."),
     lambda3: float = typer.Option(0.03, help="capf: cooperative weight (Macktoobian Eq. 5)."),
     max_steps: Optional[int] = typer.Option(None, help="Step limit [default: 1000 deg / step]."),
