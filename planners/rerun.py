@@ -82,6 +82,12 @@ STEP_CAP = 1.10
 MARGIN_HOPS = 2
 MAX_MARGIN_HOPS = 4
 
+#: On arrays of at most this many robots (a whole run: 0.05-0.4 s), groups that their
+#: patches left stuck get the ladder again as whole-array runs around every group (the
+#: S10 re-runs), taken only when one completes: on the 500-robot layout at 3.0-3.5 mm,
+#: neighbouring groups squeeze each other's patches and often need to move together.
+WHOLE_ARRAY_ROBOTS = 2000
+
 #: One local kernel run: (robots (k,) int64 increasing, script (ptr, steps, angles) CSR
 #: paths of the ring robots in ``robots`` order (empty rows: the others), movable (k,),
 #: greed (k,), phobia (k,), greedy_first (k,) bool, seed, max_steps) -> StepRun over
@@ -104,6 +110,8 @@ class Rerun:
     attempts : int, kernel runs made
     blocked : int, attempts stopped by a ring move that found no room
     seconds : float, wall time of all of it
+    partial : bool, ``run`` is a whole-array attempt whose stuck robots went on wandering
+        until the step cap (a search had better plan them from step 0)
     """
 
     run: StepRun
@@ -113,6 +121,7 @@ class Rerun:
     attempts: int
     blocked: int
     seconds: float
+    partial: bool = False
 
     @property
     def complete(self) -> bool:
@@ -226,8 +235,8 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
         # other groups' stuck robots, and the robots of the patches solved before, replay
         allowed = ~(stuck & ~solved & ~own)
         allowed[list(override)] = False
-        best, tries, stops = _ladder(own, allowed, movable, pairs, paths, override, run, goal,
-                                     fold, max_steps, int(seed) + 1000003 * c, attempts)
+        best, tries, stops, _ = _ladder(own, allowed, movable, pairs, paths, override, run,
+                                        goal, fold, max_steps, int(seed) + 1000003 * c, attempts)
         made += tries
         blocked += stops
         if best is None:
@@ -245,6 +254,21 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
             mine = attempt.ev_robot == k
             events[r] = (attempt.ev_step[mine], attempt.ev_angles[mine])
             final[r] = attempt.final[k]
+    if n_solved < len(groups) and stuck.size <= WHOLE_ARRAY_ROBOTS:
+        # groups next to each other may need to give way together: whole-array runs
+        best, tries, stops, closest = _ladder(stuck, None, movable, pairs, paths, {}, run,
+                                              goal, fold, max_steps, int(seed) + 7919, attempts)
+        made += tries
+        blocked += stops
+        if best is not None:
+            return Rerun(best[2], stuck.copy(), len(groups), len(groups), made, blocked,
+                         time.perf_counter() - clock)
+        left = stuck_mask(closest, goal, movable) if closest is not None else stuck
+        if left.sum() < (stuck & ~solved).sum():
+            # fewer stuck than the patches left: its stuck robots wandered until the cap
+            return Rerun(closest, stuck & ~left, len(groups),
+                         len([g for g in groups if not left[g].any()]), made, blocked,
+                         time.perf_counter() - clock, partial=True)
     merged = first
     if events:
         old = ~np.isin(first.ev_robot, np.fromiter(events, dtype=np.int64))
@@ -262,21 +286,27 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
 
 def _ladder(own, allowed, movable, pairs, paths, override, run, goal, fold, max_steps, seed,
             attempts):
-    """The attempts on one group (robots ``own`` (n,) bool; patches within ``allowed``):
-    returns (best (robots, interior mask, StepRun, steps until its interior arrived) or
-    None, attempts made, attempts blocked by the ring)."""
+    """The attempts on one group (robots ``own`` (n,) bool; patches within ``allowed``,
+    or whole-array runs when it is None). Returns (best (robots, interior mask, StepRun,
+    steps until its interior arrived) or None, attempts made, attempts blocked by the ring,
+    the incomplete attempt that left fewest robots stuck (fewer than the group) or None)."""
     seen = own.copy()                # robots stuck in the first run or any attempt
+    everyone = np.arange(own.size)
     fewest = int(own.sum())
     stale = made = blocked = 0
     margin = MARGIN_HOPS
-    best = None
+    best = closest = None
     first_complete = -1
     for k in range(attempts):
         hops, g, p = LADDER[k % len(LADDER)]
-        region = grow_region(pairs, seen, hops) & movable & allowed
-        interior = grow_region(pairs, region, margin) & allowed
-        robots = np.flatnonzero(grow_region(pairs, interior, 1))
-        inner = interior[robots]
+        if allowed is None:          # the whole array
+            region = grow_region(pairs, seen, hops) & movable
+            robots, inner = everyone, np.ones(own.size, dtype=bool)
+        else:
+            region = grow_region(pairs, seen, hops) & movable & allowed
+            interior = grow_region(pairs, region, margin) & allowed
+            robots = np.flatnonzero(grow_region(pairs, interior, 1))
+            inner = interior[robots]
         attempt = run(robots, ring_script(paths, robots, ~inner, override),
                       movable[robots] & inner, np.where(region[robots], g, 1.0),
                       np.where(region[robots], p, 0.0), region[robots].copy(),
@@ -300,6 +330,7 @@ def _ladder(own, allowed, movable, pairs, paths, override, run, goal, fold, max_
                 break                # complete, and the fold is no longer than the plan's
         elif left is not None and int(left.sum()) < fewest:
             fewest = int(left.sum())
+            closest = attempt
             stale = 0
         else:
             stale += 1
@@ -309,4 +340,4 @@ def _ladder(own, allowed, movable, pairs, paths, override, run, goal, fold, max_
             break
         if first_complete < 0 and stale >= PATIENCE:
             break
-    return best, made, blocked
+    return best, made, blocked, closest

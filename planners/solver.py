@@ -315,6 +315,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         if progress is not None:
             progress(rounds, int(stuck.sum()))
         outcome = None
+        partial = False   # this round's search starts from a re-run that left robots stuck
         to_replace = deadlocked_groups(geom, stuck) if stuck.any() else []
         if use_search and to_replace and settings.reruns > 0 and settings.greedy:
             # cheapest first: the same run again, greedy-first Markov robots around the groups
@@ -323,7 +324,8 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             tau_sr += rr.seconds
             rerun_attempts += rr.attempts
             run = rr.run
-            left = stuck & ~rr.solved
+            partial = rr.partial
+            left = stuck_mask(run, goal, movable)
             resolved_groups = [g for g in to_replace if not left[g].any()]
             n_rerun_groups += len(resolved_groups)
             n_rerun_robots += int(sum(len(g) for g in resolved_groups))
@@ -334,9 +336,12 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             # generator (from this round's seed) leaves ``rng`` as "replace" uses it
             ptr, steps, angles = build_paths(n, run.ev_robot, run.ev_step, run.ev_angles, start,
                                              run.final, run.n_steps)
+            # after a partial whole-array re-run the stuck robots wandered until the cap:
+            # keeping that motion as their lead-in would delay the fold, so search from step 0
             outcome = resolve_groups(geom, PathSet.from_csr(ptr, steps, angles), run.n_steps,
                                      to_replace, start, goal, movable, md, settings.step_deg,
-                                     search_settings, np.random.default_rng([seed, 1]),
+                                     _with(search_settings, step0_first=True) if partial
+                                     else search_settings, np.random.default_rng([seed, 1]),
                                      memo=memo if settings.greedy else None)
             search_s += outcome.seconds
             to_replace = outcome.failed

@@ -322,7 +322,8 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
             return float(u.min()), float(u.max())
 
         dirty, touched, n_merged, n_tightened = repair(merged.collisions, labels, id_index,
-                                                       window, tol, pre, regions, step_span)
+                                                       window, tol, pre, regions, step_span,
+                                                       pre_base=float(presimplify_deg))
         merges += n_merged
         tightened += n_tightened
         if not dirty:

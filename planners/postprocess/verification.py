@@ -73,7 +73,8 @@ def subset_trajectory(traj: Trajectory, sel: np.ndarray) -> Trajectory:
 
 def repair(collisions, labels: np.ndarray, id_index: dict, window: np.ndarray, tol: np.ndarray,
            pre: np.ndarray, regions: WindowRegions | None = None,
-           step_span: Callable | None = None) -> tuple[set, set, int, int]:
+           step_span: Callable | None = None, pre_base: float | None = None
+           ) -> tuple[set, set, int, int]:
     """Answer a failed round's ``collisions`` in place (see the module docstring).
 
     ``labels`` (n,) group of each robot; ``id_index`` robot id -> index; ``window``,
@@ -82,7 +83,10 @@ def repair(collisions, labels: np.ndarray, id_index: dict, window: np.ndarray, t
     pre-simplification to 0). With ``regions`` (and ``step_span(collision, margin_mm) ->
     (u0, u1)``, the plan steps around the collision in which the pair stays closer than
     ``margin_mm`` in the plan), the window is narrowed only there
-    (:func:`narrow_locally`), not along the whole path. Returns
+    (:func:`narrow_locally`), not along the whole path. A robot whose pre-simplification
+    is above ``pre_base`` (the wiggle tolerance, e.g. 0.5 deg: 0.19 mm at 22 mm, more than
+    the post-processing budget) has it halved towards ``pre_base`` at each collision,
+    whatever the window does. Returns
     (groups to redo, robots tightened or at their floor, merges, robots tightened).
     """
     dirty: set = set()
@@ -107,6 +111,8 @@ def repair(collisions, labels: np.ndarray, id_index: dict, window: np.ndarray, t
         # the smoothing deviates from the plan most: narrow its window first (around the
         # collision with regions, else along the path); the pre-simplification and RDP
         # tolerances are halved with a global window, or once the local one is at its floor
+        if pre_base is not None and pre[i] > pre_base:
+            pre[i] = max(float(pre_base), pre[i] / _TIGHTEN)
         if regions is not None:
             narrowed = any([narrow_locally(regions, i, step_span, c, window[i]) for c in found])
         else:

@@ -11,6 +11,7 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import REACHED, build_paths
+import rfp_twin.planners.rerun as rerun_module
 from rfp_twin.planners.rerun import (EXTRA_ATTEMPTS, LADDER, MARGIN_HOPS, PATIENCE, STEP_CAP,
                                      arrival_steps, clusters, grow_region, rerun_deadlocks)
 from rfp_twin.planners.solver import PlannerSettings
@@ -95,8 +96,32 @@ def _ladder_of(results: list):
     return run, calls
 
 
-def _rerun(first, run, **kw):
-    return rerun_deadlocks(first, GOAL, MOVABLE, PAIRS, _paths(first), run, **kw)
+def _rerun(first, run, whole: bool = False, **kw):
+    """rerun_deadlocks on the chain; patches only unless ``whole`` (the chain is small
+    enough for the whole-array ladder after them)."""
+    limit = rerun_module.WHOLE_ARRAY_ROBOTS
+    rerun_module.WHOLE_ARRAY_ROBOTS = N_CHAIN if whole else 0
+    try:
+        return rerun_deadlocks(first, GOAL, MOVABLE, PAIRS, _paths(first), run, **kw)
+    finally:
+        rerun_module.WHOLE_ARRAY_ROBOTS = limit
+
+
+def test_groups_their_patches_leave_get_whole_array_runs_on_small_arrays():
+    first = _fake(100, [12, 13])
+    # patches: no progress until the ladder stops; then whole-array runs: one completes
+    runs = [(125, [12, 13])] * (1 + PATIENCE) + [(125, [12]), (99, [])]
+    run, calls = _ladder_of(runs)
+    rr = _rerun(first, run, whole=True, seed=0, attempts=8)
+    assert rr.complete and rr.attempts == len(runs) and not rr.partial
+    assert calls[-1]["robots"].tolist() == list(range(N_CHAIN)) and calls[-1]["movable"].all()
+    assert np.diff(calls[-1]["script"][0]).sum() == 0           # nobody replays
+    assert rr.solved.tolist() == np.isin(np.arange(N_CHAIN), [12, 13]).tolist()
+    # none completes: the whole-array attempt with fewer stuck robots goes on, partial
+    run, _ = _ladder_of([(125, [12, 13])] * (1 + PATIENCE) + [(125, [12])] * 8)
+    rr = _rerun(first, run, whole=True, seed=0, attempts=8)
+    assert rr.partial and not rr.complete and rr.solved.tolist() == (np.arange(N_CHAIN) == 13).tolist()
+    assert rr.run.final[12].tolist() == [1.0, 1.0]
 
 
 def test_a_patch_is_the_region_its_margin_and_a_replaying_ring():
