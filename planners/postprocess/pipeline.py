@@ -250,6 +250,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     groups: dict[int, TimedGroup] = {}
     dirty = set(np.unique(labels).tolist())
     changed = np.ones(n, dtype=bool)           # robots whose trajectory changed since last check
+    hits = np.zeros(n, dtype=np.int64)         # rounds in which each robot was in a collision
     id_index = {int(r): i for i, r in enumerate(plan.robot_ids)}
     start_cfg, end_cfg = plan.start(), plan.end()
     near = verify_neighbours(geom, verify_buffer) if verifier is not None else None
@@ -323,7 +324,8 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
 
         dirty, touched, n_merged, n_tightened = repair(merged.collisions, labels, id_index,
                                                        window, tol, pre, regions, step_span,
-                                                       pre_base=float(presimplify_deg))
+                                                       pre_base=float(presimplify_deg),
+                                                       hits=hits)
         merges += n_merged
         tightened += n_tightened
         if not dirty:

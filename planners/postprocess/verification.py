@@ -73,8 +73,8 @@ def subset_trajectory(traj: Trajectory, sel: np.ndarray) -> Trajectory:
 
 def repair(collisions, labels: np.ndarray, id_index: dict, window: np.ndarray, tol: np.ndarray,
            pre: np.ndarray, regions: WindowRegions | None = None,
-           step_span: Callable | None = None, pre_base: float | None = None
-           ) -> tuple[set, set, int, int]:
+           step_span: Callable | None = None, pre_base: float | None = None,
+           hits: np.ndarray | None = None) -> tuple[set, set, int, int]:
     """Answer a failed round's ``collisions`` in place (see the module docstring).
 
     ``labels`` (n,) group of each robot; ``id_index`` robot id -> index; ``window``,
@@ -85,8 +85,12 @@ def repair(collisions, labels: np.ndarray, id_index: dict, window: np.ndarray, t
     ``margin_mm`` in the plan), the window is narrowed only there
     (:func:`narrow_locally`), not along the whole path. A robot whose pre-simplification
     is above ``pre_base`` (the wiggle tolerance, e.g. 0.5 deg: 0.19 mm at 22 mm, more than
-    the post-processing budget) has it halved towards ``pre_base`` at each collision,
-    whatever the window does. Returns
+    the post-processing budget) has it halved towards ``pre_base`` from its third round
+    in a collision on, whatever the window does (``hits`` (n,) int counts each robot's
+    rounds in a collision and is updated in place). Greedy + search at 2.5 mm, 20 seeds:
+    from the first round the duration ratio p95 went 1.10 -> 1.16, from the second
+    1.13, from the third 1.12 (median 1.060 unchanged); a 3.5 mm fold whose wiggly robot
+    grazed a fiducial for 8 rounds passes in 3. Returns
     (groups to redo, robots tightened or at their floor, merges, robots tightened).
     """
     dirty: set = set()
@@ -111,7 +115,9 @@ def repair(collisions, labels: np.ndarray, id_index: dict, window: np.ndarray, t
         # the smoothing deviates from the plan most: narrow its window first (around the
         # collision with regions, else along the path); the pre-simplification and RDP
         # tolerances are halved with a global window, or once the local one is at its floor
-        if pre_base is not None and pre[i] > pre_base:
+        if hits is not None:
+            hits[i] += 1
+        if pre_base is not None and pre[i] > pre_base and (hits is None or hits[i] >= 3):
             pre[i] = max(float(pre_base), pre[i] / _TIGHTEN)
         if regions is not None:
             narrowed = any([narrow_locally(regions, i, step_span, c, window[i]) for c in found])

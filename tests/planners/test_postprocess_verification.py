@@ -102,16 +102,22 @@ def test_neighbours_are_symmetric_and_local_and_subsets_keep_robots():
     assert sub.robot_ids.tolist() == [5, 7] and sub.angles[0][1].tolist() == [2.0]
 
 
-def test_a_wiggle_tolerance_above_the_base_is_halved_at_every_collision():
+def test_a_wiggle_tolerance_above_the_base_is_halved_from_the_third_collision():
     """A robot pre-simplified within the wiggle tolerance (0.5 deg, 0.19 mm at the end of
-    the segment) has it halved towards the base tolerance at each collision, on top of
-    the usual tightening; robots at the base tolerance only get the usual tightening."""
-    def tighten(pre_base):
+    the segment) has it halved towards the base tolerance from its third round in a
+    collision on, on top of the usual tightening; robots at the base tolerance only get
+    the usual tightening (here a global window: both halve)."""
+    def tighten(pre_base, rounds):
         pre = np.array([0.5, 0.2])
-        repair([hit(10, 11)], np.array([0, 0]), {10: 0, 11: 1}, np.array([200.0, 200.0]),
-               np.array([0.1, 0.1]), pre, pre_base=pre_base)
+        hits = np.zeros(2, dtype=np.int64)
+        for _ in range(rounds):
+            repair([hit(10, 11)], np.array([0, 0]), {10: 0, 11: 1}, np.array([200.0, 200.0]),
+                   np.array([0.1, 0.1]), pre, pre_base=pre_base, hits=hits)
+        assert hits.tolist() == [rounds, rounds]
         return pre.tolist()
 
-    assert tighten(None) == [0.25, 0.1]          # the global window's tightening halves both
-    assert tighten(0.2) == [0.125, 0.1]          # the wiggle tolerance first drops to 0.25
-    assert tighten(0.5) == tighten(None)
+    assert tighten(None, 2) == tighten(0.1, 2) == [0.125, 0.05]
+    assert tighten(None, 3) == [0.0625, 0.025]
+    # the third round brings robot 10 down to the base first (0.125 -> 0.1 -> 0.05);
+    # robot 11, already below it, is tightened as usual
+    assert tighten(0.1, 3) == [0.05, 0.025]
