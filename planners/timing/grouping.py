@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from rfp_twin.models.geometry2d import DEG, beta_segment, segment_distance
 
@@ -68,7 +68,7 @@ def _clearance_at(ptr, steps, angles, base_xy, i, j, s, alpha_len, seg_start, se
     return segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - thr
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def _pair_clearance_below(ptr, steps, angles, n_steps, base_xy, pairs, alpha_len, seg_start,
                           seg_end, buffer, mu, margin):
     """Per pair: the smallest clearance found before it drops below ``margin`` (mm).
@@ -80,12 +80,13 @@ def _pair_clearance_below(ptr, steps, angles, n_steps, base_xy, pairs, alpha_len
     below ``margin`` within ``(c - margin) / (mu_i + mu_j)`` steps, so those are skipped. The
     walk stops at the first sample below ``margin`` (its value is returned). A value
     ``>= margin`` is the smallest sample (an upper bound of the minimum) and proves the
-    whole plan stays ``>= margin``; a value ``< margin`` only says "below".
+    whole plan stays ``>= margin``; a value ``< margin`` only says "below". Pairs are
+    walked in parallel (each on its own; the result does not depend on the threads).
     """
     p = pairs.shape[0]
     out = np.empty(p)
-    q = np.empty(4)
-    for k in range(p):
+    for k in prange(p):
+        q = np.empty(4)
         i = pairs[k, 0]
         j = pairs[k, 1]
         thr = buffer[i] + buffer[j]
