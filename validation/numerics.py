@@ -182,29 +182,37 @@ def axis_csr(traj: Trajectory, ax: int):
     aa = np.deg2rad(np.concatenate([np.asarray(traj.angles[ax][i], dtype=np.float64)
                                     for i in range(n)])) if n else np.zeros(0)
     rate = np.zeros(tt.size)
-    for i in range(n):
-        lo, hi = int(ptr[i]), int(ptr[i + 1])
-        dt = np.diff(tt[lo:hi])
-        da = np.abs(np.diff(aa[lo:hi]))
-        jump = (dt <= 0) & (da > 0)
+    if tt.size > 1:
+        dt = np.diff(tt)
+        da = np.abs(np.diff(aa))
+        inside = np.ones(dt.size, dtype=bool)    # not from one robot's last point to the next
+        inside[ptr[1:n] - 1] = False
+        jump = inside & (dt <= 0) & (da > 0)
         if jump.any():
             k = int(np.flatnonzero(jump)[0])
+            i = int(np.searchsorted(ptr, k, side="right")) - 1
             raise TrajectoryError(
                 f"robot {int(traj.robot_ids[i])}: axis {AXES[ax]} jumps by "
-                f"{math.degrees(float(da[k])):.6g} deg at t = {float(tt[lo + k]):.6g} s with "
+                f"{math.degrees(float(da[k])):.6g} deg at t = {float(tt[k]):.6g} s with "
                 f"no time between breakpoints; allowed: continuous motion (strictly "
                 f"increasing times where the angle changes)")
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rate[lo:hi - 1] = np.where(dt > 0, da / np.where(dt > 0, dt, 1.0), 0.0)
+        moving = inside & (dt > 0)
+        rate[:-1][moving] = da[moving] / dt[moving]
     return ptr, tt, aa, rate
 
 
 def peak_and_travel(ptr: np.ndarray, tt: np.ndarray, rate: np.ndarray):
     """Per robot of one axis: largest |slope| (rad/s) and total travel (rad), (n,) each."""
     n = len(ptr) - 1
-    peak = np.array([rate[ptr[i]:ptr[i + 1]].max(initial=0.0) for i in range(n)])
-    travel = np.array([float(np.sum(rate[ptr[i]:ptr[i + 1] - 1]
-                                    * np.diff(tt[ptr[i]:ptr[i + 1]]))) for i in range(n)])
+    peak = np.zeros(n)
+    travel = np.zeros(n)
+    rows = np.flatnonzero(np.diff(ptr) > 0)
+    if rows.size:
+        # a robot's last breakpoint has rate 0, so the products across robots vanish
+        step = np.zeros(tt.size)
+        step[:-1] = rate[:-1] * np.diff(tt)
+        peak[rows] = np.maximum(np.maximum.reduceat(rate, ptr[rows]), 0.0)
+        travel[rows] = np.add.reduceat(step, ptr[rows])
     return peak, travel
 
 
