@@ -171,9 +171,10 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         recorded path (CSR, :func:`rfp_twin.planners.plan.build_paths`) for each robot that
         *replays* one instead of planning: at step s it moves to its path's angles at s
         (linear between breakpoints, the last ones after the path's end), each move
-        checked by the step rule against the robots around it; robots with an empty row
-        plan as usual. A replayed robot must be given ``movable`` False (it is not
-        waited for) and gets no breakpoints. [default: nobody replays]
+        checked by the step rule against the robots around it, until the last replayed
+        move (even past ``max_steps``, which then only bounds the planning); robots with
+        an empty row plan as usual. A replayed robot must be given ``movable`` False (it
+        is not waited for) and gets no breakpoints. [default: nobody replays]
 
     Returns
     -------
@@ -286,9 +287,10 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, gree
     step = 0
     n_awake = 1
     moves_before = -1
-    # replays go on to their end even once every planned robot is home: each of their
-    # moves is checked against where the planned robots stand
-    while step < max_steps and (n_left > 0 or step < s_until):
+    # replays go on to their end, even once every planned robot is home and past
+    # max_steps: each of their moves is checked against where the planned robots stand
+    limit = max(max_steps, s_until)
+    while step < limit and (n_left > 0 or step < s_until):
         # quiescent: nothing moved, nobody awake and no replay to come -> nothing can change
         if n_moves == moves_before and n_awake == 0 and step >= s_until:
             break

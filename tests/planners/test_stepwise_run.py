@@ -161,3 +161,19 @@ def test_a_replayed_move_into_a_robot_that_stands_there_stops_the_run():
     assert hit.replay_blocked and 45 < hit.n_steps < 135
     free = run(list(spec.fold_deg), towards_1)
     assert not free.replay_blocked and free.n_steps == 180
+
+
+def test_replays_run_to_their_end_past_the_step_limit():
+    """The step limit bounds the planning, not the replays: a swing recorded over 180
+    steps is replayed (and checked) to its end with max_steps 50, and one that runs into
+    a standing arm after step 50 is still caught."""
+    geom = make_geom(7, 2.0)
+    spec = geom.spec
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), 1.0)
+    towards_1 = float(np.degrees(np.arctan2(*(geom.base_xy[1] - geom.base_xy[0])[::-1]))) % 360.0
+    a0 = (towards_1 + 10.0) % 360.0            # pointing away; robot 0 is met after step 100
+    script = (np.array([0, 0, 2]), np.array([0.0, 180.0]), np.array([[a0, 0.0], [a0 + 180.0, 0.0]]))
+    start = np.array([[towards_1, 0.0], [a0, 0.0]])
+    run = run_array(geom, start, start, np.array([False, False]), step_deg=1.0, max_steps=50,
+                    md=md, greed=1.0, phobia=0.0, seed=0, robots=np.array([0, 1]), script=script)
+    assert run.replay_blocked and 100 < run.n_steps < 180
