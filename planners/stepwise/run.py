@@ -60,10 +60,10 @@ class StepRun:
     replay_blocked: bool = False
 
 
-def sub_csr(ptr: np.ndarray, idx: np.ndarray, robots: np.ndarray, n_items: int | None = None
-            ) -> tuple[np.ndarray, np.ndarray]:
-    """Rows ``robots`` ((k,) int64) of a CSR list (ptr (n+1,), idx): with ``n_items`` None
-    (a robot -> robot list) only the entries that are themselves in ``robots``, renumbered
+def sub_csr(ptr: np.ndarray, idx: np.ndarray, robots: np.ndarray, renumber: bool = True
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows ``robots`` ((k,) int64) of a CSR list (ptr (n+1,), idx): with ``renumber`` (a
+    robot -> robot list) only the entries that are themselves in ``robots``, renumbered
     to their positions in it; else (robot -> obstacle) every entry, unchanged.
     Returns (ptr (k+1,), idx, positions in the old ``idx`` of the entries kept)."""
     counts = ptr[robots + 1] - ptr[robots]
@@ -71,7 +71,7 @@ def sub_csr(ptr: np.ndarray, idx: np.ndarray, robots: np.ndarray, n_items: int |
     take = (np.repeat(ptr[robots], counts) + np.arange(counts.sum())
             - np.repeat(np.cumsum(counts) - counts, counts)).astype(np.int64)
     vals = idx[take]
-    if n_items is None:
+    if renumber:
         where = np.full(ptr.size - 1, -1, dtype=np.int64)
         where[robots] = np.arange(robots.size)
         vals = where[vals]
@@ -164,7 +164,7 @@ def _robot_arrays(geom: ArrayGeometry, robots: np.ndarray | None) -> dict:
     out["nbr_ptr"], out["nbr_idx"], take = sub_csr(geom.nbr_ptr, geom.nbr_idx, robots)
     out["nbr_dist"] = np.ascontiguousarray(geom.nbr_dist[take])
     out["fid_ptr"], out["fid_idx"], _ = sub_csr(geom.fid_ptr, geom.fid_idx, robots,
-                                                int(geom.fid_xy.shape[0]))
+                                                renumber=False)
     for name, v in out.items():       # the kernel's types as for the whole array: one compile
         v.flags.writeable = getattr(geom, name).flags.writeable
     return out

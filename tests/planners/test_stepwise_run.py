@@ -8,7 +8,7 @@ import pytest
 from rfp_twin.planners.plan import build_paths
 from rfp_twin.planners.rerun import grow_region
 from rfp_twin.planners.stepwise import ANGLE_EPS, max_displacement
-from rfp_twin.planners.stepwise.run import run_array
+from rfp_twin.planners.stepwise.run import run_array, sub_csr
 from rfp_twin.planners.targets import random_targets
 from tests.planners.conftest import make_geom
 
@@ -177,3 +177,15 @@ def test_replays_run_to_their_end_past_the_step_limit():
     run = run_array(geom, start, start, np.array([False, False]), step_deg=1.0, max_steps=50,
                     md=md, greed=1.0, phobia=0.0, seed=0, robots=np.array([0, 1]), script=script)
     assert run.replay_blocked and 100 < run.n_steps < 180
+
+
+def test_sub_csr_keeps_the_rows_asked_for_and_renumbers_robot_lists():
+    # robots 0..3: 0 -> {1, 2}, 1 -> {0, 3}, 2 -> {0}, 3 -> {1}
+    ptr = np.array([0, 2, 4, 5, 6])
+    idx = np.array([1, 2, 0, 3, 0, 1])
+    p, i, take = sub_csr(ptr, idx, np.array([0, 1, 3]))
+    assert p.tolist() == [0, 1, 3, 4] and i.tolist() == [1, 0, 2, 1]
+    assert idx[take].tolist() == [1, 0, 3, 1]            # the entries kept, old numbering
+    # robot -> obstacle lists: every entry of the rows, unchanged
+    p, i, take = sub_csr(ptr, idx, np.array([1, 2]), renumber=False)
+    assert p.tolist() == [0, 2, 3] and i.tolist() == [0, 3, 0] and take.tolist() == [2, 3, 4]
