@@ -248,10 +248,13 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
         sub_ptr, sub_steps, sub_angles = build_paths(
             robots.size, attempt.ev_robot, attempt.ev_step, attempt.ev_angles, start[robots],
             attempt.final, attempt.n_steps)
+        # each patch robot's breakpoints, in the kernel's (step) order
+        by_robot = np.argsort(attempt.ev_robot, kind="stable")
+        ev_ptr = np.searchsorted(attempt.ev_robot[by_robot], np.arange(robots.size + 1))
         for k in np.flatnonzero(inner):
             r = int(robots[k])
             override[r] = (sub_steps[sub_ptr[k]:sub_ptr[k + 1]], sub_angles[sub_ptr[k]:sub_ptr[k + 1]])
-            mine = attempt.ev_robot == k
+            mine = by_robot[ev_ptr[k]:ev_ptr[k + 1]]
             events[r] = (attempt.ev_step[mine], attempt.ev_angles[mine])
             final[r] = attempt.final[k]
     if n_solved < len(groups) and stuck.size <= WHOLE_ARRAY_ROBOTS:

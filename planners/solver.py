@@ -54,7 +54,7 @@ from rfp_twin.models.errors import PlanningError, SpecError, TargetError
 from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
 from rfp_twin.planners.continuation import continue_groups
 from rfp_twin.planners.offline import apply_offline
-from rfp_twin.planners.rerun import rerun_deadlocks, stuck_mask
+from rfp_twin.planners.rerun import clusters, rerun_deadlocks, stuck_mask
 from rfp_twin.planners.resolve_search import PathSet, SearchResolveSettings, resolve_groups
 from rfp_twin.planners.stepwise import StepRun, array_max_displacement, run_array
 from rfp_twin.planners.targets import check_targets, random_targets
@@ -194,20 +194,7 @@ def _continue(geom: ArrayGeometry, outcome, groups: list[np.ndarray], goal: np.n
 
 def deadlocked_groups(geom: ArrayGeometry, stuck: np.ndarray) -> list[np.ndarray]:
     """Connected components of the stuck robots through the Eq. 4 neighbour graph."""
-    from scipy.sparse import csr_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    idx = np.flatnonzero(stuck)
-    if idx.size == 0:
-        return []
-    pos = -np.ones(geom.n_robots, dtype=np.int64)
-    pos[idx] = np.arange(idx.size)
-    p = geom.pairs
-    both = stuck[p[:, 0]] & stuck[p[:, 1]]
-    rows, cols = pos[p[both, 0]], pos[p[both, 1]]
-    graph = csr_matrix((np.ones(rows.size), (rows, cols)), shape=(idx.size, idx.size))
-    n_comp, labels = connected_components(graph, directed=False)
-    return [idx[labels == c] for c in range(n_comp)]
+    return clusters(geom.pairs, stuck, 0)
 
 
 def _replace_one(geom: ArrayGeometry, rng: np.random.Generator, targets: np.ndarray,

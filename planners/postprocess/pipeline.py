@@ -48,8 +48,8 @@ Pipeline (:func:`postprocess`):
    stands (the verifier is asked for the pairs of the changed robots only: its
    ``focus_ids``; the report's ``merged_with`` joins each re-check into the whole
    trajectory's check, which is ``report.final_check``, so the whole trajectory is never
-   checked twice: 3.5-4.8 s saved at 12,871 robots). At most ``max_retries`` rounds; a trajectory that does not pass is never
-   returned (:class:`rfp_twin.models.errors.PlanningError`).
+   checked twice: 3.5-4.8 s saved at 12,871 robots). At most ``max_retries`` rounds; a
+   trajectory that does not pass is never returned (:class:`rfp_twin.models.errors.PlanningError`).
 
 The trajectory starts exactly at the plan's first configuration and ends exactly at
 its last (the plan is given in the executed direction, fold -> targets).
