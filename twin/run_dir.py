@@ -112,6 +112,13 @@ def write_targets_csv(path: Path, spec: RobotSpec, layout: Layout, plan: Plan) -
                         f"{plan.original_targets[i, 0]:.6f}", f"{plan.original_targets[i, 1]:.6f}"])
 
 
+def check_output_folder(out: Path, overwrite: bool = False) -> None:
+    """Raise :class:`RfpError` when ``out`` exists and may not be replaced (called before
+    any work, so a long plan is not lost at the end)."""
+    if Path(out).exists() and not overwrite:
+        raise RfpError(f"output folder {out} exists; allowed: a new folder, or --force to replace it")
+
+
 def write_run(out: Path, *, spec: RobotSpec, layout: Layout, plan: Plan, trajectory: Trajectory,
               summary: dict, check2d: dict, overwrite: bool = False) -> Path:
     """Write a complete run folder at ``out`` (atomically). Returns ``out``.
@@ -120,8 +127,7 @@ def write_run(out: Path, *, spec: RobotSpec, layout: Layout, plan: Plan, traject
     without the per-pair lists.
     """
     out = Path(out)
-    if out.exists() and not overwrite:
-        raise RfpError(f"output folder {out} exists; allowed: a new folder, or --force to replace it")
+    check_output_folder(out, overwrite)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:

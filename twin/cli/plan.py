@@ -94,6 +94,9 @@ def plan(
     t_import = time.perf_counter()
     from rfp_twin.models.robot import load_spec
     from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
+    from rfp_twin.twin.run_dir import check_output_folder
+
+    check_output_folder(out, force)
 
     t_start = time.perf_counter()
     options = PlanOptions(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,

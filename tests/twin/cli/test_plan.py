@@ -117,6 +117,16 @@ def test_existing_output_is_kept_unless_forced(tmp_path):
     assert r.returncode == 0 and not (out / "mine.txt").exists()
 
 
+def test_existing_output_is_refused_before_any_work(tmp_path):
+    """The folder is checked first: targets that would fail later are not even read."""
+    out = tmp_path / "o"
+    out.mkdir()
+    tg = tmp_path / "t.csv"
+    tg.write_text("robot_id,x_mm,y_mm\n" + "".join(f"{i},0,0\n" for i in range(7)))
+    r = run("plan", "--layout", "hex:7", "--targets", str(tg), "--out", str(out))
+    assert r.returncode == 2 and "exists" in r.stderr and "unreachable" not in r.stderr
+
+
 def test_unresolved_deadlock_exits_nonzero_but_keeps_the_evidence(tmp_path):
     out = tmp_path / "o"
     r = run("plan", "--layout", "hex:19", "--buffer", "3.5", "--step", "0.5", "--direction", "forward",
