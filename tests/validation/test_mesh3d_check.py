@@ -130,6 +130,31 @@ def test_pair_minimum_matches_a_dense_exact_sampling():
     assert rep.min_distance_mm >= ref - 0.08
 
 
+
+def test_a_poor_seed_changes_nothing_the_report_guarantees(monkeypatch):
+    # the seeds are GJK upper bounds; the minimum and the collisions must stay right
+    # however far above the exact value a seed is (here 0.4 mm on every seed)
+    from rfp_twin.validation.mesh3d.exact import ExactDistance
+    traj = Trajectory.from_breakpoints(
+        [0, 1], [[0, 1, 2], [0, 2]], [[0, 5, 0], [180, 178]],
+        [[0, 1.1, 2], [0, 0.9, 2]], [[90, 26, 90], [180, 184, 180]])
+    kw = dict(distance_tol_mm=0.002, distance_rel_tol=0.0)
+    good = validate_trajectory(traj, SPEC, pair_layout(), GEOM, **kw)
+    plain = ExactDistance.distance_frames
+
+    def inflated(self, ka, fa, kb, fb, bounds, upper_above=None):
+        d = plain(self, ka, fa, kb, fb, bounds)
+        return d + 0.4 if upper_above is not None and d > upper_above else d
+
+    monkeypatch.setattr(ExactDistance, "distance_frames", inflated)
+    poor = validate_trajectory(traj, SPEC, pair_layout(), GEOM, **kw)
+    assert poor.ok and good.ok
+    assert poor.n_fcl_calls > good.n_fcl_calls          # the exact step did the work
+    assert abs(poor.min_distance_mm - good.min_distance_mm) <= 0.002 + 1e-9
+    hit = swing([0.0, 1.0], [30.0, 20.0], 1.0)          # robot 0's bar into robot 1's
+    rep = validate_trajectory(hit, SPEC, pair_layout(), GEOM)
+    assert len(rep.collisions) == 1 and rep.collisions[0].t_end == pytest.approx(1.0)
+
 # -- bad input ---------------------------------------------------------------------------
 def test_unknown_robot_duplicate_ids_and_jumps_are_refused():
     with pytest.raises(UnknownRobotError):

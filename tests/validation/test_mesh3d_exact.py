@@ -70,3 +70,30 @@ def test_exact_distance_is_the_whole_mesh_distance_and_pruning_keeps_it():
             assert ex.collides(ka, pa, za, kb, pb, zb, bounds[0], 0.5) == (unpruned <= 0.5)
     assert checked > 100 and hits >= 1
     assert ex.n_evals == 60 * 3 * 4                     # distance twice, collides twice
+
+
+def test_gjk_upper_bounds_are_never_below_the_exact_distance():
+    # the pieces as convex solids (GJK): an upper bound of the exact distance, equal to
+    # it on nearly every pose; at or below ``upper_above`` the exact value is returned
+    ex = ExactDistance(MODELS)
+    rng = np.random.default_rng(5)
+    configs = np.vstack([rng.uniform(0, 360, (80, 4)), [[0, 20, 180, 180]]])
+    equal = clear = overlaps = 0
+    for ang in configs:
+        for la, lb in (("beta", "beta"), ("alpha", "beta")):
+            ka, pa, za = _posed(la, (0.0, 0.0), *ang[:2])
+            kb, pb, zb = _posed(lb, (PITCH, 0.0), *ang[2:])
+            bounds = np.full(MODELS.max_piece_pairs, -np.inf)
+            exact = ex.distance(ka, pa, za, kb, pb, zb, bounds)
+            calls, hull_calls = ex.n_calls, ex.n_hull_calls
+            upper = ex.distance(ka, pa, za, kb, pb, zb, bounds, upper_above=0.0)
+            assert ex.n_hull_calls > hull_calls
+            assert upper >= exact - 1e-9
+            if exact > 0.0:
+                clear += 1
+                equal += upper <= exact + 1e-6
+                assert ex.n_calls == calls          # no BVH call for a clear pose
+            else:                                   # overlap: GJK says 0, BVH confirms
+                overlaps += 1
+                assert upper == 0.0 and ex.n_calls > calls
+    assert overlaps >= 1 and clear > 100 and equal >= 0.95 * clear

@@ -5,7 +5,7 @@ What is reported (:class:`Check3DReport`)
 * For every *pair* that can touch (robot-robot, robot-fiducial: some link of one can
   come within ``min_gap_mm`` of some link of the other for some joint angles,
   :mod:`rfp_twin.validation.mesh3d.scene`), the smallest 3D distance over the whole motion (the
-  smallest exact FCL distance sampled, an upper bound of the true minimum, within
+  smallest FCL distance sampled, an upper bound of the true minimum, within
   ``distance_tol_mm + distance_rel_tol * clearance`` of it), its time and the two links.
 * Every 3D collision: time interval, robots / fiducial, links, as :class:`Collision3D`.
   A "collision" is a distance ``<= min_gap_mm`` (default 0: contact). Solid overlap
@@ -23,9 +23,14 @@ Algorithm
 1. *Lower-bound minimum* (numba, every candidate link pair, :func:`capsule_min`):
    ``Cmin``, its time, and a *certificate* ``cert``: ``C(t) >= cert`` on the whole span
    (``-inf`` if a leaf hit ``resolution_s`` first).
-2. *Seed* (FCL): per pair, exact ``D`` at the time of ``Cmin`` of its link pairs, in
+2. *Seed* (FCL GJK): per pair, ``D`` at the time of ``Cmin`` of its link pairs, in
    increasing ``Cmin``, while ``Cmin`` is below the pair's best ``D`` so far minus the
-   tolerance. ``best`` = the pair's smallest ``D``.
+   tolerance. ``best`` = the pair's smallest ``D``. The seed values are GJK distances
+   of the pieces as convex solids: distances of two points of the solids, so upper
+   bounds of the exact ``D`` (equal to it on most poses; exact BVH distances replace
+   those ``<= min_gap_mm``). Every guarantee below holds for any upper bound: a pair
+   is closed only by its lower bound reaching ``best - tol``, and an inaccurate seed
+   only leaves more suspect intervals to the exact step 4.
 3. *Suspect intervals* (numba, :func:`capsule_suspects`), only for link pairs whose
    certificate does not already exceed both ``min_gap_mm`` and ``cut = best - tol`` (on
    the SDSS-V meshes: none in a collision-free fold): bisection of ``C`` again, keeping
@@ -192,7 +197,10 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
     lp_best = np.full(n_lp, np.inf)
     hits: dict[int, list] = {}      # link pair -> [(t_start, t_end, d, t_d, conservative)]
 
-    def eval_exact(qp: np.ndarray, qt: np.ndarray) -> np.ndarray:
+    def eval_exact(qp: np.ndarray, qt: np.ndarray, upper: bool = False) -> np.ndarray:
+        """Distances of link pairs ``qp`` at times ``qt`` (exact; ``upper``: GJK upper
+        bounds, exact at or below ``thr``), folded into the pair minima and the hits."""
+        above = thr if upper else None
         qp = np.asarray(qp, dtype=np.int64)
         qt = np.asarray(qt, dtype=np.float64)
         poses, bounds = poses_and_bounds(qp, qt, *bnd_args)
@@ -207,10 +215,10 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
             ka, kb = int(scene.lp_ka[p]), int(scene.lp_kb[p])
             if scene.placed:
                 d = exact.distance_between(ka, rot_a[k], tr_a[k], kb, rot_b[k], tr_b[k],
-                                           bounds[k])
+                                           bounds[k], above)
             else:
                 d = exact.distance(ka, poses[k, :3], models.offset_z[ka], kb, poses[k, 3:],
-                                   models.offset_z[kb], bounds[k])
+                                   models.offset_z[kb], bounds[k], above)
             out[k] = d
             if d < lp_best[p]:
                 lp_best[p] = d
@@ -227,15 +235,28 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
             return math.inf
         return b - tol - rel * max(b - thr, 0.0)
 
-    # -- 2. seed: exact distance at the capsule minimum ---------------------------------
+    # -- 2. seed: distance at the capsule minimum (GJK upper bounds) ------------------
+    # Per pair, its link pairs in increasing Cmin while Cmin is below the pair's cut;
+    # taken in rounds (the r-th link pair of every pair at once), which evaluates
+    # exactly the link pairs the one-by-one order would.
     t0 = time.perf_counter()
     order = np.lexsort((cmin, scene.lp_group))
-    for k, p in enumerate(order):
-        g = int(scene.lp_group[p])
-        if cmin[p] < want(g):
-            eval_exact(np.array([p]), np.array([tcmin[p]]))
-        if progress is not None and k % 2000 == 0:
-            report_progress("exact distances", k, 3 * max(n_lp, 1))
+    grp = scene.lp_group[order]
+    first = np.r_[0, np.flatnonzero(np.diff(grp)) + 1] if n_lp else np.zeros(0, dtype=np.int64)
+    rank = np.arange(n_lp) - np.repeat(first, np.diff(np.r_[first, n_lp]).astype(np.int64))
+    n_rounds = int(rank.max()) + 1 if n_lp else 0
+    seen = 0
+    for r in range(n_rounds):
+        cand = order[rank == r]
+        bg = best[scene.lp_group[cand]]
+        fin = np.isfinite(bg)
+        cut = np.full(len(cand), np.inf)
+        cut[fin] = bg[fin] - tol - rel * np.maximum(bg[fin] - thr, 0.0)
+        take = cand[cmin[cand] < cut]
+        for s in range(0, len(take), 4096):
+            eval_exact(take[s:s + 4096], tcmin[take[s:s + 4096]], upper=True)
+            report_progress("exact distances", seen + s, 3 * max(n_lp, 1))
+        seen += len(cand)
     t_exact = time.perf_counter() - t0
 
     # -- 3. suspect intervals (capsule bound cannot clear) ------------------------------
@@ -306,7 +327,8 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
         duration_s=t_hi - t_lo, pairs=pairs, min_distance_mm=float(min_d),
         link_kind_min_mm=kind_min, link_kind_lower_bound_mm=kind_lb, collisions=collisions,
         n_capsule_evals=n_cap,
-        n_exact_evals=exact.n_evals, n_fcl_calls=exact.n_calls,
+        n_exact_evals=exact.n_evals,
+        n_fcl_calls=exact.n_calls + exact.n_hull_calls, n_gjk_calls=exact.n_hull_calls,
         seconds_broadphase=t_broad, seconds_exact=t_exact,
         seconds=time.perf_counter() - clock,
         settings={"resolution_s": res, "distance_tol_mm": tol, "distance_rel_tol": rel,

@@ -129,7 +129,8 @@ def _piece(piece, oz: float) -> dict:
             "zlim": [float(v[:, 2].min()) + oz, float(v[:, 2].max()) + oz],
             "rmax": max(float(np.hypot(v[:, 0], v[:, 1]).max()),
                         float(np.hypot(seg[:, 0], seg[:, 1]).max())),
-            "bvh": _bvh(piece), "eq": np.ascontiguousarray(ConvexHull(v).equations),
+            "bvh": _bvh(piece), "hull": _hull(piece),
+            "eq": np.ascontiguousarray(ConvexHull(v).equations),
             "probe": v[0], "poly": poly}
 
 
@@ -138,10 +139,18 @@ def _piece_fields(pieces: list) -> dict:
     polys = [pc["poly"] for pc in pieces]
     return {"cap": np.asarray([pc["cap"] for pc in pieces], dtype=np.float64),
             "zlim": np.asarray([pc["zlim"] for pc in pieces], dtype=np.float64),
-            "bvh": [pc["bvh"] for pc in pieces], "hull_eq": [pc["eq"] for pc in pieces],
+            "bvh": [pc["bvh"] for pc in pieces], "hull": [pc["hull"] for pc in pieces],
+            "hull_eq": [pc["eq"] for pc in pieces],
             "probe": np.asarray([pc["probe"] for pc in pieces], dtype=np.float64),
             "poly_ptr": np.concatenate([[0], np.cumsum([len(q) for q in polys])]).astype(np.int64),
             "poly_xy": np.ascontiguousarray(np.vstack(polys), dtype=np.float64)}
+
+
+def _hull(mesh) -> fcl.Convex:
+    """The piece as an FCL convex solid (GJK distances: fast, an upper bound)."""
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    flat = np.hstack([np.full((len(faces), 1), 3, dtype=np.int64), faces]).ravel()
+    return fcl.Convex(np.ascontiguousarray(mesh.vertices, dtype=np.float64), len(faces), flat)
 
 
 def _bvh(mesh) -> fcl.BVHModel:
@@ -183,6 +192,8 @@ class LinkModels:
     l_alpha : float
         Alpha axis to beta axis, mm.
     bvh : list of fcl.BVHModel, one per piece (link frame)
+    hull : list of fcl.Convex, one per piece (link frame): the same vertices as a convex
+        solid, for GJK distances (:meth:`ExactDistance.distance_frames` ``upper_above``)
     hull_eq : list of (m, 4) float64, per piece: ``n . x + d <= 0`` inside (link frame)
     probe : (P, 3) float64
         One vertex of each piece (link frame), for the containment test.
@@ -204,6 +215,7 @@ class LinkModels:
     offset_z: np.ndarray
     l_alpha: float
     bvh: list
+    hull: list
     hull_eq: list
     probe: np.ndarray
     poly_ptr: np.ndarray
@@ -247,7 +259,8 @@ class LinkModels:
             return self
         pieces = [_piece(m, 0.0) for m in meshes]
         n = len(pieces)
-        old = [{"cap": self.cap[u], "zlim": self.zlim[u], "bvh": self.bvh[u], "eq": self.hull_eq[u],
+        old = [{"cap": self.cap[u], "zlim": self.zlim[u], "bvh": self.bvh[u], "hull": self.hull[u],
+                "eq": self.hull_eq[u],
                 "probe": self.probe[u], "poly": self.poly_xy[self.poly_ptr[u]:self.poly_ptr[u + 1]]}
                for u in range(len(self.cap))]
         return replace(

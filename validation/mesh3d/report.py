@@ -97,9 +97,10 @@ class Check3DReport:
         bound of its true smallest distance, within the tolerance), mm.
     collisions : list of Collision3D
         Sorted by ``t_start``.
-    n_capsule_evals, n_exact_evals, n_fcl_calls : int
-        Capsule-bound evaluations (link pair x time), exact link-pair distances, and
-        FCL distance calls (piece pairs) made.
+    n_capsule_evals, n_exact_evals, n_fcl_calls, n_gjk_calls : int
+        Capsule-bound evaluations (link pair x time), link-pair distances, FCL distance
+        calls (piece pairs) made, and how many of those were GJK calls on the pieces as
+        convex solids (upper bounds; the rest are exact BVH distances).
     seconds_broadphase, seconds_exact, seconds : float
         Wall time of candidate selection + capsule bounds, of FCL work, and in all
         (includes numba compilation / cache loading on a first call), s.
@@ -120,6 +121,7 @@ class Check3DReport:
     n_capsule_evals: int = 0
     n_exact_evals: int = 0
     n_fcl_calls: int = 0
+    n_gjk_calls: int = 0
     seconds_broadphase: float = 0.0
     seconds_exact: float = 0.0
     seconds: float = 0.0
@@ -156,6 +158,7 @@ class Check3DReport:
             "n_capsule_evals": int(self.n_capsule_evals),
             "n_exact_evals": int(self.n_exact_evals),
             "n_fcl_calls": int(self.n_fcl_calls),
+            "n_gjk_calls": int(self.n_gjk_calls),
             "seconds_broadphase": float(self.seconds_broadphase),
             "seconds_exact": float(self.seconds_exact),
             "seconds": float(self.seconds),
@@ -173,7 +176,7 @@ class Check3DReport:
             f"{self.n_fiducials} fiducials, {self.n_pairs} pairs ({self.n_link_pairs} link "
             f"pairs), {self.duration_s:.3f} s, min distance {md} mm (gap {self.min_gap_mm} mm)",
             f"  per link pair (mm): {kinds or '-'}",
-            f"  {self.n_capsule_evals} capsule bounds, {self.n_exact_evals} exact distances "
-            f"({self.n_fcl_calls} FCL calls); broadphase {self.seconds_broadphase:.3f} s, "
+            f"  {self.n_capsule_evals} capsule bounds, {self.n_exact_evals} distances "
+            f"({self.n_fcl_calls} FCL calls, {self.n_gjk_calls} of them GJK); broadphase {self.seconds_broadphase:.3f} s, "
             f"exact {self.seconds_exact:.3f} s, total {self.seconds:.3f} s",
         ], self.collisions, _COLUMNS)
