@@ -158,7 +158,8 @@ class Trajectory:
         out = {}
         for i, rid in enumerate(self.robot_ids):
             out[str(int(rid))] = {
-                AXES[ax]: [[float(a), float(t)] for a, t in zip(self.angles[ax][i], self.times[ax][i])]
+                AXES[ax]: np.column_stack((np.asarray(self.angles[ax][i], dtype=np.float64),
+                                           np.asarray(self.times[ax][i], dtype=np.float64))).tolist()
                 for ax in range(2)
             }
         return out

@@ -70,7 +70,7 @@ def time_and_simplify(path: SmoothPath, robots: np.ndarray, vmax, amax, tol_robo
     if limits is not None:
         # the smoothed path is an average of in-limit angles; the local windows' sum of
         # components can round a hair outside (-2e-14 deg at a 0 deg limit)
-        Y = np.clip(Y, limits[robots, :, 0].ravel(), limits[robots, :, 1].ravel())
+        Y = np.minimum(np.maximum(Y, limits[robots, :, 0].ravel()), limits[robots, :, 1].ravel())
     tol = np.repeat(tol_robot[robots], 2)
     keep, used = simplify_columns(t, Y, tol, max_points)
     # limits on the piecewise-linear product; a uniform slow-down fixes any excess
