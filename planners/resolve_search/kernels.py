@@ -19,7 +19,6 @@ import numpy as np
 from numba import njit
 
 from rfp_twin.models.geometry2d import beta_segment, point_segment_distance, segments_within
-from rfp_twin.planners.roadmap.sweep import _sweep_advance, _sweep_queries
 
 
 @njit(cache=True)
@@ -36,6 +35,29 @@ def segments_at(base_x, base_y, ang, l_alpha, s0, s1):
 
 
 @njit(cache=True)
+def first_blocker(a, b, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th):
+    """The first moving obstacle that configuration (a, b) deg at step t meets, or -1.
+
+    Tables as :func:`moving_collisions`; t is clamped to the table. Two base disks
+    farther apart than the threshold are skipped before the exact test."""
+    n_t = obs_seg.shape[0]
+    k = int(round(t))
+    if k < 0:
+        k = 0
+    elif k >= n_t:
+        k = n_t - 1
+    x0, y0, x1, y1 = beta_segment(bx, by, a, b, l_alpha, s0, s1)
+    rho = math.sqrt(max((x0 - bx) ** 2 + (y0 - by) ** 2, (x1 - bx) ** 2 + (y1 - by) ** 2))
+    for o in range(obs_seg.shape[1]):
+        if obs_d[o] - rho - obs_rho[k, o] > obs_th[o]:
+            continue
+        if segments_within(x0, y0, x1, y1, obs_seg[k, o, 0], obs_seg[k, o, 1],
+                           obs_seg[k, o, 2], obs_seg[k, o, 3], obs_th[o]):
+            return o
+    return -1
+
+
+@njit(cache=True)
 def moving_collisions(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, out, hits):
     """Moving-obstacle test of one robot.
 
@@ -46,29 +68,13 @@ def moving_collisions(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, ob
     obs_th : (n_obs,) clearance threshold per obstacle (buffer_i + buffer_j + MD), mm
     out : (m,) bool, written
     hits : (n_obs,) int64, incremented for the first obstacle each colliding query meets
-
-    Two base disks farther apart than the threshold are skipped before the exact test.
     """
-    n_t = obs_seg.shape[0]
-    n_obs = obs_seg.shape[1]
     for r in range(q.shape[0]):
-        k = int(round(t[r]))
-        if k < 0:
-            k = 0
-        elif k >= n_t:
-            k = n_t - 1
-        x0, y0, x1, y1 = beta_segment(bx, by, q[r, 0], q[r, 1], l_alpha, s0, s1)
-        rho = math.sqrt(max((x0 - bx) ** 2 + (y0 - by) ** 2, (x1 - bx) ** 2 + (y1 - by) ** 2))
-        hit = False
-        for o in range(n_obs):
-            if obs_d[o] - rho - obs_rho[k, o] > obs_th[o]:
-                continue
-            if segments_within(x0, y0, x1, y1, obs_seg[k, o, 0], obs_seg[k, o, 1],
-                               obs_seg[k, o, 2], obs_seg[k, o, 3], obs_th[o]):
-                hit = True
-                hits[o] += 1
-                break
-        out[r] = hit
+        o = first_blocker(q[r, 0], q[r, 1], t[r], bx, by, l_alpha, s0, s1, obs_seg, obs_rho,
+                          obs_d, obs_th)
+        if o >= 0:
+            hits[o] += 1
+        out[r] = o >= 0
 
 
 #: :func:`sweep_layers` outcomes.
@@ -79,7 +85,8 @@ SWEEP_FOUND, SWEEP_FAILED, SWEEP_BUDGET = 0, 1, 2
 def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
                  bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, hits):
     """The layer loop of :class:`rfp_twin.planners.roadmap.sweep._PathSweep` compiled, with
-    :func:`moving_collisions` as its black box (same queries, same order, same result).
+    :func:`first_blocker` as its black box: the same reachable sets, trajectory and node
+    count as the Python loop, with fewer checks.
 
     Q (P + 1, 2), D (P, 2) deg: positions along the path and forward steps; frac (K,)
     sub-check offsets; k_static, k_max: time indices (-1: none); t0, dt: time of layer 0
@@ -87,17 +94,26 @@ def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
     nodes_left: node budget (-1: none); the obstacle tables as :func:`moving_collisions`.
     Returns (outcome, k_end, came (k_end, P + 1) int8 action that reached each position
     per layer, nodes expanded, checks made).
+
+    Actions are taken forward, stop, backward (forward only once static), as in
+    :func:`rfp_twin.planners.roadmap.sweep._sweep_queries`; a position reaches the next
+    layer by the first action that is clear. So an action is not checked when a
+    higher-priority one already reached its position, and its sub-checks stop at the
+    first blocked one: neither changes what is reached or how. ``hits`` counts, per
+    obstacle, the actions it blocked first (the Python loop counts blocked sub-checks).
     """
     P = Q.shape[0] - 1
     K = frac.shape[0]
     reach = np.zeros(P + 1, dtype=np.bool_)
     reach[0] = True
+    nxt = np.zeros(P + 1, dtype=np.bool_)
     came = np.zeros((16, P + 1), dtype=np.int8)
     nodes = 0
     checks = 0
     k = 0
     while True:
-        if reach[P] and t0 + k * dt > goal_after - 1e-12:
+        t_k = t0 + k * dt
+        if reach[P] and t_k > goal_after - 1e-12:
             return SWEEP_FOUND, k, came[:k], nodes, checks
         if k_max >= 0 and k >= k_max:
             return SWEEP_FAILED, k, came[:k], nodes, checks
@@ -105,20 +121,44 @@ def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
         if nodes_left >= 0 and nodes >= nodes_left:
             return SWEEP_BUDGET, k, came[:k], nodes, checks
         static = k_static >= 0 and k >= k_static
-        q, t, src, act = _sweep_queries(reach, Q, D, frac, static, t0 + k * dt, dt)
-        checks += t.size
-        hit = np.empty(t.size, dtype=np.bool_)
-        moving_collisions(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, hit,
-                          hits)
-        nxt, how = _sweep_advance(hit, src, act, K, P)
-        if not nxt.any():
-            return SWEEP_FAILED, k, came[:k], nodes, checks
         if k == came.shape[0]:
             grown = np.zeros((2 * k, P + 1), dtype=np.int8)
             grown[:k] = came
             came = grown
-        came[k] = how
-        reach = nxt
+        nxt[:] = False
+        moved = False
+        for m in (1, 0, -1):
+            if static and m != 1:
+                break
+            for p in range(P + 1):
+                if not reach[p] or (m == 1 and p == P) or (m == -1 and p == 0):
+                    continue
+                p2 = p + m
+                if nxt[p2]:
+                    continue
+                da = 0.0
+                db = 0.0
+                if m == 1:
+                    da, db = D[p, 0], D[p, 1]
+                elif m == -1:
+                    da, db = -D[p - 1, 0], -D[p - 1, 1]
+                clear = True
+                for j in range(K):
+                    checks += 1
+                    o = first_blocker(Q[p, 0] + frac[j] * da, Q[p, 1] + frac[j] * db,
+                                      t_k + frac[j] * dt, bx, by, l_alpha, s0, s1, obs_seg,
+                                      obs_rho, obs_d, obs_th)
+                    if o >= 0:
+                        hits[o] += 1
+                        clear = False
+                        break
+                if clear:
+                    nxt[p2] = True
+                    came[k, p2] = m
+                    moved = True
+        if not moved:
+            return SWEEP_FAILED, k, came[:k], nodes, checks
+        reach, nxt = nxt, reach
         k += 1
 
 
