@@ -84,6 +84,16 @@ def time_and_simplify(path: SmoothPath, robots: np.ndarray, vmax, amax, tol_robo
 
 
 
+def group_members(labels: np.ndarray) -> dict[int, np.ndarray]:
+    """Robot indices (increasing, int64) of every group label in ``labels`` (n,), by one
+    stable sort (``np.flatnonzero(labels == g)`` for each g, without a pass per group)."""
+    labels = np.asarray(labels)
+    order = np.argsort(labels, kind="stable")
+    keys, first = np.unique(labels[order], return_index=True)
+    return {int(k): order[a:b].astype(np.int64) for k, a, b in
+            zip(keys, first, np.r_[first[1:], len(order)])}
+
+
 def group_offsets(groups: dict, align: str) -> dict:
     """Start time of each group, s: all end with the longest ("end") or start at 0 ("start")."""
     T = max((g.duration for g in groups.values()), default=0.0)

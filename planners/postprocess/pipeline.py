@@ -71,8 +71,8 @@ from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import PlanningError, SpecError, field_error
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import Plan
-from rfp_twin.planners.postprocess.groups import (TimedGroup, assemble, group_offsets,
-                                                  time_and_simplify)
+from rfp_twin.planners.postprocess.groups import (TimedGroup, assemble, group_members,
+                                                  group_offsets, time_and_simplify)
 from rfp_twin.planners.postprocess.report import PostprocessReport, build_report, slowest_groups
 from rfp_twin.planners.postprocess.verification import (LOCAL_NARROWING, near_stretch, repair,
                                                         verify_neighbours)
@@ -262,18 +262,19 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         # 3-4. time, sample, simplify the groups that changed
         t0 = time.perf_counter()
         mrange = path.moving_range()
+        members = group_members(labels)
         todo = sorted(dirty)
         for done, g in enumerate(todo, 1):
             if progress is not None and (done % PROGRESS_EVERY == 0 or done == len(todo)):
                 progress(done, len(todo))
-            robots = np.flatnonzero(labels == g)
-            if robots.size:
+            robots = members.get(g)
+            if robots is not None:
                 groups[g] = time_and_simplify(path, robots, vmax, amax, tol,
                                               grid_steps=grid_steps, backend=backend,
                                               sample_s=sample_s, max_points=max_points,
                                               moving_range=mrange, limits=joint_limits)
         for g in list(groups):
-            if not np.any(labels == g):
+            if g not in members:
                 del groups[g]
         stages["time"] += time.perf_counter() - t0
         # 5. verification: everything in the first round, then the robots whose

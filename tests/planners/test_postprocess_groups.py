@@ -49,3 +49,16 @@ def test_groups_are_aligned_and_assembled_with_exact_ends():
     assert traj.duration == pytest.approx(groups[0].duration)
     assert traj.times[0][1][0] == pytest.approx(off[1])          # the short move waits
     assert traj.point_counts()[2].tolist() == [1, 1]             # still: one point
+
+
+def test_group_members_are_the_robots_of_each_label_in_order():
+    from rfp_twin.planners.postprocess.groups import group_members
+
+    rng = np.random.default_rng(4)
+    labels = rng.integers(0, 40, 500) * 3          # gaps in the labels
+    got = group_members(labels)
+    assert sorted(got) == sorted(set(labels.tolist()))
+    for g, robots in got.items():
+        assert robots.dtype == np.int64
+        assert np.array_equal(robots, np.flatnonzero(labels == g))
+    assert group_members(np.zeros(0, dtype=np.int64)) == {}

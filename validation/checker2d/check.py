@@ -80,7 +80,7 @@ def _obstacle_pairs(base: np.ndarray, reach: np.ndarray, a: np.ndarray, b: np.nd
 
 def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_mm: float, *,
                      resolution_s: float = 1e-5, distance_tol_mm: float = 0.005,
-                     distance_rel_tol: float = 0.01,
+                     distance_rel_tol: float = 0.05,
                      focus_ids: np.ndarray | None = None) -> CheckReport:
     """Check a trajectory densely against the 2D capsule model.
 
@@ -106,7 +106,11 @@ def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_m
     distance_tol_mm, distance_rel_tol : float
         Per-pair minima are refined until within ``distance_tol_mm + distance_rel_tol
         * clearance`` of the true minimum (``clearance``: sampled minimum minus the
-        threshold, if positive): close pairs to 0.005 mm, far pairs more loosely.
+        threshold, if positive): close pairs to 0.005 mm, far pairs to 5 % of their
+        clearance (as the 3D check; at 1 % the first check of a 12,871-robot fold took
+        3.8 s instead of 2.2 s, half of it spent refining minima of pairs mm apart).
+        Collisions do not depend on these: an interval is bisected while its bound is
+        at or below the threshold, whatever the tolerance.
     focus_ids : (k,) robot ids, optional
         Check only the pairs with at least one of these robots (and their obstacles):
         a re-check after some robots' trajectories changed, the other pairs being known.
