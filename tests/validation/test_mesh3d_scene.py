@@ -73,3 +73,32 @@ def test_link_speeds_are_speed_radii_times_slopes():
 def test_a_robot_listed_twice_is_refused():
     with pytest.raises(TrajectoryError, match="robot 0: appears more than once"):
         Scene(static([[0, 180]] * 2, ids=(0, 0)), layout(), MODELS, 0.0)
+
+
+def test_candidate_link_pairs_of_a_whole_array_are_those_of_can_touch():
+    # the 500-robot SDSS-V layout with its fiducials, bases at every distance: the
+    # vectorised candidate table equals the pair-by-pair rule of LinkModels.link_pairs
+    from rfp_twin.models.layout import layout_by_name
+    from rfp_twin.validation.mesh3d.links import FIDUCIAL_KINDS, ROBOT_KINDS
+
+    lay = layout_by_name("sdss-v-fps", PITCH)
+    ids = np.asarray(lay.robot_ids)
+    scene = Scene(static([[0, 180]] * len(ids), ids=tuple(ids.tolist())), lay, MODELS, 0.3)
+    xy = np.column_stack([scene.obj_x, scene.obj_y])
+    n_r = len(ids)
+    rows, groups = [], []
+    for i in range(n_r):
+        for j in range(i + 1, len(xy)):
+            d = float(np.hypot(*(xy[i] - xy[j])))
+            kinds = MODELS.link_pairs(ROBOT_KINDS, ROBOT_KINDS if j < n_r else FIDUCIAL_KINDS,
+                                      d, 0.3)
+            if kinds:
+                rows += [(i, ka, j, kb) for ka, kb in kinds]
+                groups.append((i, j))
+    got = sorted(zip(scene.lp_oa.tolist(), scene.lp_ka.tolist(), scene.lp_ob.tolist(),
+                     scene.lp_kb.tolist()))
+    assert got == sorted(rows) and len(rows) > 1000
+    assert sorted(map(tuple, scene.groups.tolist())) == sorted(groups)
+    # each link pair's group is the pair of its two objects
+    assert np.array_equal(scene.groups[scene.lp_group], np.column_stack([scene.lp_oa,
+                                                                         scene.lp_ob]))

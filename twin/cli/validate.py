@@ -20,7 +20,6 @@ field / file and what is allowed), 4 collision.
 """
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 from typing import List, Optional
@@ -65,7 +64,9 @@ def validate(
     out: Optional[Path] = typer.Option(None, help="Report file [default: RUN/validation.json]."),
 ) -> None:
     """Check a run against the 3D collision meshes (FCL); exit 4 on any 3D collision."""
-    from rfp_twin.models.files import atomic_write_text
+    import orjson
+
+    from rfp_twin.models.files import atomic_write_bytes
     from rfp_twin.twin.run_dir import TRAJECTORIES, TRAJECTORIES_TO_FOLD, load_run
     from rfp_twin.validation.mesh3d import validate_trajectory
 
@@ -87,7 +88,9 @@ def validate(
             "geometry": geom_label}
     report.geometry = geom_label
     path = out if out is not None else Path(run) / VALIDATION_JSON
-    atomic_write_text(path, json.dumps(data, indent=1))
+    # orjson: 0.2 s instead of ~2 s for the 113,877 pairs of a 12,871-robot fold (the
+    # report's non-finite numbers are already null)
+    atomic_write_bytes(path, orjson.dumps(data, option=orjson.OPT_INDENT_2))
     console.print(report.table(), highlight=False)
     console.print(f"wrote {path}", highlight=False)
     if not report.ok:

@@ -102,18 +102,29 @@ class Scene:
         xy = np.vstack([base, fid_xy]) if n_r + n_f else np.empty((0, 2))
         self.obj_x = np.ascontiguousarray(xy[:, 0])
         self.obj_y = np.ascontiguousarray(xy[:, 1])
-        kinds_of = [ROBOT_KINDS] * n_r + [FIDUCIAL_KINDS] * n_f
         pairs = pairs_within(xy, 2.0 * float(models.reach.max()) + min_gap)
         # robot-robot and robot-fiducial pairs only (fiducials never move)
-        pairs = pairs[pairs[:, 0] < n_r]
-        rows, groups = [], []
-        for i, j in pairs:
-            d = float(np.hypot(xy[i, 0] - xy[j, 0], xy[i, 1] - xy[j, 1]))
-            kinds = models.link_pairs(kinds_of[i], kinds_of[j], d, min_gap)
-            if kinds:
-                rows += [(i, ka, j, kb, len(groups)) for ka, kb in kinds]
-                groups.append((int(i), int(j)))
-        self._set_pairs(rows, groups)
+        pairs = pairs[pairs[:, 0] < n_r].astype(np.int64).reshape(-1, 2)
+        d = np.hypot(xy[pairs[:, 0], 0] - xy[pairs[:, 1], 0], xy[pairs[:, 0], 1] - xy[pairs[:, 1], 1])
+        # per pair, its candidate link-kind pairs in LinkModels.link_pairs order (a column
+        # per candidate; a robot-fiducial pair uses the first columns)
+        fid = pairs[:, 1] >= n_r
+        combos = ([(ka, kb) for ka in ROBOT_KINDS for kb in ROBOT_KINDS],
+                  [(ka, kb) for ka in ROBOT_KINDS for kb in FIDUCIAL_KINDS])
+        width = max(len(c) for c in combos)
+        touch = np.zeros((len(pairs), width), dtype=bool)
+        kind = np.zeros((2, width, 2), dtype=np.int64)
+        for f, cands in enumerate(combos):
+            rows_f = fid if f else ~fid
+            for c, (ka, kb) in enumerate(cands):
+                kind[f, c] = (ka, kb)
+                touch[rows_f, c] = models.can_touch_many(ka, kb, d[rows_f], min_gap)
+        has = touch.any(axis=1)
+        group_of = np.cumsum(has) - 1
+        p, c = np.nonzero(touch)                      # pair-major, candidates in order
+        k = kind[fid[p].astype(np.int64), c]
+        self._set_pairs(np.column_stack([pairs[p, 0], k[:, 0], pairs[p, 1], k[:, 1],
+                                         group_of[p]]), pairs[has])
 
     def _set_pairs(self, rows, groups) -> None:
         arr = np.asarray(rows, dtype=np.int64).reshape(-1, 5)
