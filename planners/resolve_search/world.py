@@ -65,6 +65,10 @@ class AlphaBetaWorld:
         self.limits = np.ascontiguousarray(geom.limits)
         #: robot index -> (obstacle robot indices, collisions met) of its latest arm
         self.hits: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        #: (robot index, its static neighbours) -> the edge memo its arms share: the
+        #: ``forbidden`` zone depends on nothing else, so an edge is checked once per
+        #: search instead of once per plan of the robot
+        self.edge_memos: dict[tuple, dict] = {}
 
     def conflict(self, i: int, tri: ArmTrajectory, j: int, trj: ArmTrajectory) -> bool:
         """Do robots i and j, on these trajectories (step clock), break the step rule?
@@ -216,7 +220,8 @@ class AlphaBetaWorld:
                    vmax=v, forbidden=forbidden, collides=collides,
                    lower=limits[[0, 2]].copy(), upper=limits[[1, 3]].copy(),
                    t_start=float(t_start), hold_until=float(t_last), t_static=float(t_last),
-                   via=partial(self.via, robot=i), sweep=sweep)
+                   via=partial(self.via, robot=i), sweep=sweep,
+                   edge_memo=self.edge_memos.setdefault((i, tuple(statics)), {}))
 
     def via(self, start: np.ndarray, goal: np.ndarray, robot: int) -> list[np.ndarray]:
         """Extra roadmap paths: retract beta fully, turn alpha, then go to the goal.

@@ -55,6 +55,10 @@ class Arm:
         ``sweep(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left) -> (outcome
         0 found / 1 failed / 2 budget, k_end, came (k_end, P + 1) int8, nodes, checks)``,
         indices -1 for none (:func:`rfp_twin.planners.resolve_search.kernels.sweep_layers`)
+    edge_memo : dict or None, where :func:`rfp_twin.planners.roadmap.plan_arm` keeps which
+        straight edges avoid ``forbidden``: arms that share one ``forbidden`` (the same
+        robot planned again with other moving obstacles) may share it, so that an edge is
+        checked once (None: one memo per ``plan_arm`` call)
     """
 
     start: np.ndarray
@@ -71,6 +75,7 @@ class Arm:
     lead_in: tuple[np.ndarray, np.ndarray] | None = None
     via: Callable[[np.ndarray, np.ndarray], list] | None = None
     sweep: Callable | None = None
+    edge_memo: dict | None = None
 
     @property
     def dim(self) -> int:

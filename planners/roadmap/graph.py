@@ -58,11 +58,12 @@ class _EdgeFeasibility:
     def __init__(self, arm: Arm, step: np.ndarray):
         self.arm = arm
         self.step = step
-        self.memo: dict[bytes, bool] = {}
+        # the arm's shared memo (keyed with the check step too), or a new one
+        self.memo: dict[bytes, bool] = {} if arm.edge_memo is None else arm.edge_memo
         self.checks = 0
 
     def ok(self, q0: np.ndarray, q1: np.ndarray) -> bool:
-        key = np.concatenate([q0, q1]).tobytes()
+        key = np.concatenate([q0, q1, self.step]).tobytes()
         hit = self.memo.get(key)
         if hit is None:
             pts = _edge_samples(q0, q1, self.step)

@@ -115,7 +115,9 @@ def test_the_compiled_sweep_finds_what_the_python_layer_loop_finds():
     base = SearchResolveSettings(search="sweep").roadmap_settings(step)
     for settings in (base, replace(base, max_nodes=300)):
         got = {}
-        for name, a in (("compiled", arm), ("python", replace(arm, sweep=None))):
+        # each run with its own edge memo, so that both count their edge checks
+        for name, a in (("compiled", replace(arm, edge_memo={})),
+                        ("python", replace(arm, sweep=None, edge_memo={}))):
             traj, stats = plan_arm(a, settings, np.random.default_rng(3))
             got[name] = (None if traj is None else (traj.times.tolist(), traj.configs.tolist()),
                          stats.nodes, stats.paths_tried, stats.budget_exhausted, stats.checks)
@@ -124,3 +126,34 @@ def test_the_compiled_sweep_finds_what_the_python_layer_loop_finds():
         if settings is base:
             assert got["compiled"][0] is not None and got["compiled"][0][0][-1] > 120.0
     assert got["compiled"][3]                         # the small budget ran out
+
+
+def test_arms_of_one_robot_share_their_edge_checks():
+    """The world gives every arm of a robot the same edge memo (its forbidden zone does
+    not change between plans): a second plan checks no edge again and finds the same
+    trajectory as a plan with a memo of its own."""
+    from dataclasses import replace
+
+    from rfp_twin.planners.resolve_search.settings import SearchResolveSettings
+    from rfp_twin.planners.roadmap import plan_arm
+
+    geom = make_geom(7, 2.0)
+    step = 0.5
+    spec = geom.spec
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
+    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
+    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
+    paths = PathSet([np.array([0.0])] * geom.n_robots, [fold[i][None, :] for i in range(geom.n_robots)])
+    world = AlphaBetaWorld(geom, paths, np.ones(geom.n_robots, bool), md, step)
+    settings = SearchResolveSettings(search="sweep").roadmap_settings(step)
+    first = world.arm(c, fold[c], np.array([0.0, 90.0]))
+    again = world.arm(c, fold[c], np.array([0.0, 90.0]), ignore=frozenset({c + 1}))
+    assert again.edge_memo is first.edge_memo
+    traj1, stats1 = plan_arm(first, settings, np.random.default_rng(3))
+    n_memo = len(first.edge_memo)
+    traj2, stats2 = plan_arm(again, settings, np.random.default_rng(3))
+    own, stats3 = plan_arm(replace(again, edge_memo={}), settings, np.random.default_rng(3))
+    assert traj1 is not None and n_memo > 0
+    assert np.array_equal(traj2.configs, own.configs) and np.array_equal(traj2.times, own.times)
+    assert stats2.checks < stats3.checks             # its edges were checked before
+    assert world.arm(c + 1, fold[c + 1], fold[c + 1]).edge_memo is not first.edge_memo
