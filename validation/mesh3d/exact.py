@@ -90,7 +90,6 @@ class ExactDistance:
         self._creq = fcl.CollisionRequest()
         self.n_calls = 0
         self.n_hull_calls = 0
-        self._last_calls = 0
         self.n_evals = 0
         self.seconds = 0.0
 
@@ -117,7 +116,7 @@ class ExactDistance:
         With ``upper_above`` set, FCL's GJK on the pieces as convex solids
         (``LinkModels.hull``, ~30x faster than the BVH) gives the value instead: the
         distance of two points of the solids, so never below the exact one, and equal to
-        it to 1e-9 mm on most poses (GJK stops early on a few, up to ~0.3 mm above).
+        it to 1e-6 mm on most poses (GJK stops early on a few, up to ~0.3 mm above).
         Only a GJK value ``<= upper_above`` (a contact, or a near one) is replaced by the
         exact distance.
         """
@@ -125,26 +124,25 @@ class ExactDistance:
         u0, v0, nb, npp = self._pieces(ka, kb)
         bounds = bounds[:npp]
         order = np.argsort(bounds, kind="stable") if npp > 1 else (0,)
-        best = math.inf
+        d = math.inf
         if upper_above is not None:
-            best = self._piece_min(order, bounds, u0, v0, nb, frame_a, frame_b, self.hulls,
-                                   solid=True)
-            self.n_hull_calls += self._last_calls
-            if best <= upper_above:
-                best = math.inf
-        if best == math.inf:
-            best = self._piece_min(order, bounds, u0, v0, nb, frame_a, frame_b, self.objs,
-                                   solid=False)
-            self.n_calls += self._last_calls
+            d, calls = self._piece_min(order, bounds, u0, v0, nb, frame_a, frame_b,
+                                       self.hulls, solid=True)
+            self.n_hull_calls += calls
+        if upper_above is None or d <= upper_above:
+            d, calls = self._piece_min(order, bounds, u0, v0, nb, frame_a, frame_b, self.objs,
+                                       solid=False)
+            self.n_calls += calls
         self.n_evals += 1
         self.seconds += time.perf_counter() - clock
-        return best
+        return d
 
     def _piece_min(self, order, bounds, u0, v0, nb, frame_a, frame_b, objs,
-                   solid: bool) -> float:
+                   solid: bool) -> tuple[float, int]:
         """Smallest FCL distance over the piece pairs, in increasing bound, stopping once
-        the bound reaches it. ``solid``: the objects are convex solids (an overlap has
-        distance 0); otherwise BVH surfaces plus the containment test."""
+        the bound reaches it, and the FCL calls made. ``solid``: the objects are convex
+        solids (an overlap has distance 0); otherwise BVH surfaces plus the containment
+        test."""
         tf_a = tf_b = None
         set_a: set = set()
         set_b: set = set()
@@ -175,8 +173,7 @@ class ExactDistance:
                 best = d
             if best <= 0.0:
                 break
-        self._last_calls = calls
-        return best
+        return best, calls
 
     def collides(self, ka: int, pose_a, za: float, kb: int, pose_b, zb: float,
                  bounds: np.ndarray, min_gap: float = 0.0) -> bool:
