@@ -100,7 +100,7 @@ def bench_validate(layout_name: str, seeds, repeat: int) -> list[str]:
               f"{wall:.2f} s [{min(walls):.2f}-{max(walls):.2f}] = broadphase "
               f"{rep.seconds_broadphase:.2f} + exact {rep.seconds_exact:.2f}; {rep.n_pairs} pairs "
               f"({rep.n_link_pairs} link pairs), {rep.n_capsule_evals} bounds, "
-              f"{rep.n_exact_evals} exact ({rep.n_fcl_calls} FCL calls); min distance "
+              f"{rep.n_exact_evals} exact ({rep.n_fcl_calls} FCL calls, {rep.n_gjk_calls} GJK); min distance "
               f"{rep.min_distance_mm:.4f} mm; {len(rep.collisions)} collisions", flush=True)
     md = [f"### 3D validation of a full fold ({layout_name}, preset sdss-v, buffer 2.5 mm)", "",
           f"Fold as `rfp-twin plan --layout {layout_name} --resolve replace --seed S` writes it "
@@ -109,13 +109,13 @@ def bench_validate(layout_name: str, seeds, repeat: int) -> list[str]:
           f"median of {repeat} warm calls of `validate_trajectory` (the process's first call, "
           "cold, is listed separately).", "",
           "| seed | robots | fold s | pairs (link pairs) | validate s | broadphase s | exact s | "
-          "lower bounds | exact distances | FCL calls | min 3D distance mm | 3D collisions |",
+          "lower bounds | exact distances | FCL calls (GJK) | min 3D distance mm | 3D collisions |",
           "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for seed, t_plan, fold, wall, rep, walls in rows:
         md.append(f"| {seed} | {rep.n_robots} | {fold.duration:.2f} | {rep.n_pairs} "
                   f"({rep.n_link_pairs}) | **{wall:.2f}** [{min(walls):.2f}-{max(walls):.2f}] | "
                   f"{rep.seconds_broadphase:.2f} | {rep.seconds_exact:.2f} | "
-                  f"{rep.n_capsule_evals} | {rep.n_exact_evals} | {rep.n_fcl_calls} | "
+                  f"{rep.n_capsule_evals} | {rep.n_exact_evals} | {rep.n_fcl_calls} ({rep.n_gjk_calls}) | "
                   f"{rep.min_distance_mm:.4f} | {len(rep.collisions)} |")
     if skipped:
         md += ["", f"Seeds without a fold (post-processing raised PlanningError): {skipped}."]
