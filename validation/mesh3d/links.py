@@ -290,16 +290,6 @@ class LinkModels:
                 base_distance_mm <= self.reach[kind_a] + self.reach[kind_b] + min_gap_mm
                 + REACH_TOL_MM)
 
-    def can_touch_many(self, kind_a: int, kind_b: int, base_distance_mm: np.ndarray,
-                       min_gap_mm: float = 0.0) -> np.ndarray:
-        """:meth:`can_touch` for an array of base distances (mm): (m,) bool."""
-        za, zb = self.zrange[kind_a], self.zrange[kind_b]
-        dz = max(0.0, za[0] - zb[1], zb[0] - za[1])
-        d = np.asarray(base_distance_mm, dtype=np.float64)
-        if not dz <= min_gap_mm + REACH_TOL_MM:
-            return np.zeros(d.shape, dtype=bool)
-        return d <= self.reach[kind_a] + self.reach[kind_b] + min_gap_mm + REACH_TOL_MM
-
     def link_pairs(self, kinds_a, kinds_b, base_distance_mm: float,
                    min_gap_mm: float = 0.0) -> list[tuple[int, int]]:
         """The ``(kind_a, kind_b)`` of ``kinds_a x kinds_b`` that :meth:`can_touch`."""

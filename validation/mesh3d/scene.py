@@ -103,28 +103,30 @@ class Scene:
         self.obj_x = np.ascontiguousarray(xy[:, 0])
         self.obj_y = np.ascontiguousarray(xy[:, 1])
         pairs = pairs_within(xy, 2.0 * float(models.reach.max()) + min_gap)
-        # robot-robot and robot-fiducial pairs only (fiducials never move)
+        # robot-robot and robot-fiducial pairs only (fiducials never move); the link
+        # pairs by the placed scenes' rule (:meth:`_rows`) with flat bases, nominal
+        # alpha arms and no slack
         pairs = pairs[pairs[:, 0] < n_r].astype(np.int64).reshape(-1, 2)
-        d = np.hypot(xy[pairs[:, 0], 0] - xy[pairs[:, 1], 0], xy[pairs[:, 0], 1] - xy[pairs[:, 1], 1])
-        # per pair, its candidate link-kind pairs in LinkModels.link_pairs order (a column
-        # per candidate; a robot-fiducial pair uses the first columns)
-        fid = pairs[:, 1] >= n_r
-        combos = ([(ka, kb) for ka in ROBOT_KINDS for kb in ROBOT_KINDS],
-                  [(ka, kb) for ka in ROBOT_KINDS for kb in FIDUCIAL_KINDS])
-        width = max(len(c) for c in combos)
-        touch = np.zeros((len(pairs), width), dtype=bool)
-        kind = np.zeros((2, width, 2), dtype=np.int64)
-        for f, cands in enumerate(combos):
-            rows_f = fid if f else ~fid
-            for c, (ka, kb) in enumerate(cands):
-                kind[f, c] = (ka, kb)
-                touch[rows_f, c] = models.can_touch_many(ka, kb, d[rows_f], min_gap)
-        has = touch.any(axis=1)
-        group_of = np.cumsum(has) - 1
-        p, c = np.nonzero(touch)                      # pair-major, candidates in order
-        k = kind[fid[p].astype(np.int64), c]
-        self._set_pairs(np.column_stack([pairs[p, 0], k[:, 0], pairs[p, 1], k[:, 1],
-                                         group_of[p]]), pairs[has])
+        n = len(xy)
+        self._o = {"base": np.column_stack([xy, np.zeros(n)]), "la": np.full(n, models.l_alpha),
+                   "slack": np.zeros((n, len(models.reach), 3))}
+        rr = pairs[:, 1] < n_r
+        i, j = pairs[rr].T
+        fi, fj = pairs[~rr].T
+        self._set_row_parts([self._rows(i, j, i, ROBOT_KINDS, j, ROBOT_KINDS, min_gap),
+                             self._rows(fi, fj, fi, ROBOT_KINDS, fj, FIDUCIAL_KINDS, min_gap)])
+        del self._o
+
+    def _set_row_parts(self, parts: list) -> np.ndarray:
+        """:meth:`_set_pairs` from :meth:`_rows` parts: one group per pair of real objects
+        (in increasing order), its link pairs together. Returns their slacks (r, 3)."""
+        gi, gj, oa, ka, ob, kb, sl = (np.concatenate([q[c] for q in parts]) for c in range(7))
+        keys, inv = np.unique(np.column_stack([gi, gj]).astype(np.int64).reshape(-1, 2),
+                              axis=0, return_inverse=True)
+        inv = inv.reshape(-1)
+        order = np.argsort(inv, kind="stable")
+        self._set_pairs(np.column_stack([oa, ka, ob, kb, inv])[order], keys)
+        return sl[order]
 
     def _set_pairs(self, rows, groups) -> None:
         arr = np.asarray(rows, dtype=np.int64).reshape(-1, 5)
@@ -161,12 +163,7 @@ class Scene:
         world[tilted] = self._posed(np.flatnonzero(tilted), np.full(int(tilted.sum()), -1))
         parts = [self._robot_pairs(n_r, obs_kind, tilted, world, min_gap),
                  self._wall_pairs(n_r, walls, obs_kind, pl, world, min_gap)]
-        gi, gj, oa, ka, ob, kb, sl = (np.concatenate([q[c] for q in parts]) for c in range(7))
-        keys, inv = np.unique(np.column_stack([gi, gj]).astype(np.int64).reshape(-1, 2),
-                              axis=0, return_inverse=True)
-        inv = inv.reshape(-1)
-        order = np.argsort(inv, kind="stable")
-        self._set_pairs(np.column_stack([oa, ka, ob, kb, inv])[order], keys)
+        slack = self._set_row_parts(parts)
         o = self._o
         self.obj_x = np.ascontiguousarray(o["base"][:, 0])
         self.obj_y = np.ascontiguousarray(o["base"][:, 1])
@@ -175,7 +172,7 @@ class Scene:
         g = o["g"]
         z0 = o["base"][:, 2] - (g[:, 0] * o["base"][:, 0] + g[:, 1] * o["base"][:, 1])
         self.place = (np.ascontiguousarray(o["la"]), np.ascontiguousarray(z0),
-                      np.ascontiguousarray(sl[order][:, [0, 2]], dtype=np.float64),
+                      np.ascontiguousarray(slack[:, [0, 2]], dtype=np.float64),
                       np.ascontiguousarray(g))
         # a bound with a height plane of slope |g| moves at most (1 + |g|) times as fast
         self.obj_speed_scale = 1.0 + np.hypot(g[:, 0], g[:, 1])
