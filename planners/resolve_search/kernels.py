@@ -19,6 +19,7 @@ import numpy as np
 from numba import njit
 
 from rfp_twin.models.geometry2d import beta_segment, point_segment_distance, segments_within
+from rfp_twin.planners.roadmap.sweep import ACTIONS, action_step, action_taken
 
 
 @njit(cache=True)
@@ -127,21 +128,13 @@ def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
             came = grown
         nxt[:] = False
         moved = False
-        for m in (1, 0, -1):
-            if static and m != 1:
-                break
+        for m in ACTIONS:
             for p in range(P + 1):
-                if not reach[p] or (m == 1 and p == P) or (m == -1 and p == 0):
+                if not action_taken(reach, p, m, P, static) or nxt[p + m]:
                     continue
                 p2 = p + m
-                if nxt[p2]:
-                    continue
-                da = 0.0
-                db = 0.0
-                if m == 1:
-                    da, db = D[p, 0], D[p, 1]
-                elif m == -1:
-                    da, db = -D[p - 1, 0], -D[p - 1, 1]
+                da = action_step(D, p, m, 0)
+                db = action_step(D, p, m, 1)
                 clear = True
                 for j in range(K):
                     checks += 1

@@ -17,6 +17,30 @@ from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, S
 from rfp_twin.planners.roadmap.search import _PathWalk
 
 
+#: The actions in the order they take a position: forward, stop, backward (+1, 0, -1
+#: along the path); once every obstacle has stopped, only forward.
+ACTIONS = (1, 0, -1)
+
+
+@njit(cache=True)
+def action_taken(reach, p, m, P, static):
+    """Is action ``m`` (of :data:`ACTIONS`) tried from position ``p`` of ``P + 1``:
+    ``p`` reachable, the move stays on the path, and forward only when ``static``."""
+    return reach[p] and not ((m == 1 and p == P) or (m == -1 and p == 0)
+                             or (static and m != 1))
+
+
+@njit(cache=True)
+def action_step(D, p, m, c):
+    """Joint ``c``'s change over action ``m`` from position ``p``: ``D[p]`` forward,
+    ``-D[p - 1]`` backward, 0 for a stop."""
+    if m == 1:
+        return D[p, c]
+    if m == -1:
+        return -D[p - 1, c]
+    return 0.0
+
+
 @njit(cache=True)
 def _sweep_queries(reach, Q, D, frac, static, t_k, dt):
     """Configurations and times to check for every action of every reachable position.
@@ -38,23 +62,16 @@ def _sweep_queries(reach, Q, D, frac, static, t_k, dt):
     src = np.empty(n, dtype=np.int64)
     act = np.empty(n, dtype=np.int64)
     b = 0
-    for m in (1, 0, -1):
-        if static and m != 1:
-            break
+    for m in ACTIONS:
         for p in range(P + 1):
-            if not reach[p] or (m == 1 and p == P) or (m == -1 and p == 0):
+            if not action_taken(reach, p, m, P, static):
                 continue
             src[b] = p
             act[b] = m
             for j in range(K):
                 r = b * K + j
                 for c in range(d):
-                    step = 0.0
-                    if m == 1:
-                        step = D[p, c]
-                    elif m == -1:
-                        step = -D[p - 1, c]
-                    q[r, c] = Q[p, c] + frac[j] * step
+                    q[r, c] = Q[p, c] + frac[j] * action_step(D, p, m, c)
                 t[r] = t_k + frac[j] * dt
             b += 1
     return q, t, src, act
