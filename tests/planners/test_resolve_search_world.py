@@ -83,6 +83,16 @@ def test_offline_robots_are_static_obstacles():
     assert not arm.collides(fold[c][None, :], np.zeros(1)).any()
 
 
+def _hex7_folded(step: float = 0.5):
+    """The 7-robot hex at 2.0 mm: (geometry, step deg, MD mm, every robot's fold (n, 2),
+    the centre robot's index)."""
+    geom = make_geom(7, 2.0)
+    spec = geom.spec
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
+    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
+    return geom, step, md, fold, int(np.argmin(np.hypot(*geom.base_xy.T)))
+
+
 def test_the_compiled_sweep_finds_what_the_python_layer_loop_finds():
     """The world's arms carry a compiled sweep (the layer loop with the step-rule test
     inside numba). Same arm, same roadmap paths: the same trajectory and node count as
@@ -94,12 +104,7 @@ def test_the_compiled_sweep_finds_what_the_python_layer_loop_finds():
     from rfp_twin.planners.resolve_search.settings import SearchResolveSettings
     from rfp_twin.planners.roadmap import plan_arm
 
-    geom = make_geom(7, 2.0)
-    step = 0.5
-    spec = geom.spec
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
-    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
-    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
+    geom, step, md, fold, c = _hex7_folded()
     right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
     # the right neighbour swings its arm towards the centre and back over 120 steps: the
     # centre, clear where it is, must wait before it can stretch out
@@ -137,12 +142,7 @@ def test_arms_of_one_robot_share_their_edge_checks():
     from rfp_twin.planners.resolve_search.settings import SearchResolveSettings
     from rfp_twin.planners.roadmap import plan_arm
 
-    geom = make_geom(7, 2.0)
-    step = 0.5
-    spec = geom.spec
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
-    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
-    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
+    geom, step, md, fold, c = _hex7_folded()
     paths = PathSet([np.array([0.0])] * geom.n_robots, [fold[i][None, :] for i in range(geom.n_robots)])
     world = AlphaBetaWorld(geom, paths, np.ones(geom.n_robots, bool), md, step)
     settings = SearchResolveSettings(search="sweep").roadmap_settings(step)
