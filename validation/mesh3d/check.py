@@ -229,11 +229,16 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
                 hits.setdefault(p, []).append((float(qt[k]), float(qt[k]), d, float(qt[k]), False))
         return out
 
+    def cuts(b: np.ndarray) -> np.ndarray:
+        """Refinement cut of pair minima ``b``: ``b - tol - rel max(b - thr, 0)`` (inf
+        where ``b`` is): a pair whose lower bound reaches it is known to its tolerance."""
+        out = np.full(b.shape, np.inf)
+        fin = np.isfinite(b)
+        out[fin] = b[fin] - tol - rel * np.maximum(b[fin] - thr, 0.0)
+        return out
+
     def want(g: int) -> float:
-        b = best[g]
-        if not math.isfinite(b):
-            return math.inf
-        return b - tol - rel * max(b - thr, 0.0)
+        return float(cuts(best[g:g + 1])[0])
 
     # -- 2. seed: distance at the capsule minimum (GJK upper bounds) ------------------
     # Per pair, its link pairs in increasing Cmin while Cmin is below the pair's cut;
@@ -248,11 +253,7 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
     seen = 0
     for r in range(n_rounds):
         cand = order[rank == r]
-        bg = best[scene.lp_group[cand]]
-        fin = np.isfinite(bg)
-        cut = np.full(len(cand), np.inf)
-        cut[fin] = bg[fin] - tol - rel * np.maximum(bg[fin] - thr, 0.0)
-        take = cand[cmin[cand] < cut]
+        take = cand[cmin[cand] < cuts(best[scene.lp_group[cand]])]
         for s in range(0, len(take), 4096):
             eval_exact(take[s:s + 4096], tcmin[take[s:s + 4096]], upper=True)
             report_progress("exact distances", seen + s, 3 * max(n_lp, 1))
@@ -262,7 +263,7 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
     # -- 3. suspect intervals (capsule bound cannot clear) ------------------------------
     t0 = time.perf_counter()
     if n_lp:
-        cut = np.array([want(int(scene.lp_group[p])) for p in range(n_lp)])
+        cut = cuts(best[scene.lp_group])
         gb = best[scene.lp_group]
         tolp = tol + rel * np.where(np.isfinite(gb), np.maximum(gb - thr, 0.0), 0.0)
         tolp = np.maximum(tolp, 1e-6)

@@ -177,6 +177,7 @@ class Check3DReport:
             f"pairs), {self.duration_s:.3f} s, min distance {md} mm (gap {self.min_gap_mm} mm)",
             f"  per link pair (mm): {kinds or '-'}",
             f"  {self.n_capsule_evals} capsule bounds, {self.n_exact_evals} distances "
-            f"({self.n_fcl_calls} FCL calls, {self.n_gjk_calls} of them GJK); broadphase {self.seconds_broadphase:.3f} s, "
-            f"exact {self.seconds_exact:.3f} s, total {self.seconds:.3f} s",
+            f"({self.n_fcl_calls} FCL calls, {self.n_gjk_calls} of them GJK); broadphase "
+            f"{self.seconds_broadphase:.3f} s, exact {self.seconds_exact:.3f} s, total "
+            f"{self.seconds:.3f} s",
         ], self.collisions, _COLUMNS)
