@@ -46,7 +46,9 @@ Units: planner steps; wall time in s.
 """
 from __future__ import annotations
 
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Callable
 
@@ -86,6 +88,10 @@ MAX_MARGIN_HOPS = 4
 #: patches left stuck get the ladder again as whole-array runs around every group (the
 #: S10 re-runs), taken only when one completes: on the 500-robot layout at 3.0-3.5 mm,
 #: neighbouring groups squeeze each other's patches and often need to move together.
+#: This ladder depends only on the first run, so it starts with the patches, in a thread
+#: of its own (the kernel releases the GIL: on a second core it costs no wall time while
+#: the patches run), and is stopped after its current attempt if the patches solve every
+#: group: the same result as running it after them.
 WHOLE_ARRAY_ROBOTS = 2000
 
 #: One local kernel run: (robots (k,) int64 increasing, script (ptr, steps, angles) CSR
@@ -229,6 +235,12 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
     made = blocked = n_solved = 0
     length = fold
     groups = clusters(pairs, stuck, 0)
+    # the whole-array ladder below needs nothing from the patches: it runs on the second
+    # core meanwhile (the kernel releases the GIL) and is used only if a group is left
+    ahead = None
+    if stuck.size <= WHOLE_ARRAY_ROBOTS and groups:
+        ahead = _Ahead(_ladder, stuck, None, movable, pairs, paths, {}, run, goal, fold,
+                       max_steps, int(seed) + 7919, attempts)
     for c, members in enumerate(groups):
         own = np.zeros(stuck.size, dtype=bool)
         own[members] = True
@@ -257,10 +269,11 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
             mine = by_robot[ev_ptr[k]:ev_ptr[k + 1]]
             events[r] = (attempt.ev_step[mine], attempt.ev_angles[mine])
             final[r] = attempt.final[k]
-    if n_solved < len(groups) and stuck.size <= WHOLE_ARRAY_ROBOTS:
+    if ahead is not None and n_solved == len(groups):
+        ahead.cancel()
+    elif ahead is not None:
         # groups next to each other may need to give way together: whole-array runs
-        best, tries, stops, closest = _ladder(stuck, None, movable, pairs, paths, {}, run,
-                                              goal, fold, max_steps, int(seed) + 7919, attempts)
+        best, tries, stops, closest = ahead.result()
         made += tries
         blocked += stops
         if best is not None:
@@ -287,12 +300,33 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
                  time.perf_counter() - clock)
 
 
+class _Ahead:
+    """``fn(*args, stop=event)`` started at once in a thread of its own; :meth:`result`
+    waits for it, :meth:`cancel` asks it to stop after the attempt it is in."""
+
+    def __init__(self, fn, *args):
+        self._stop = threading.Event()
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix="rerun-ahead")
+        self._future = self._pool.submit(fn, *args, stop=self._stop)
+
+    def result(self):
+        try:
+            return self._future.result()
+        finally:
+            self._pool.shutdown(wait=False)
+
+    def cancel(self) -> None:
+        self._stop.set()
+        self._pool.shutdown(wait=False)
+
+
 def _ladder(own, allowed, movable, pairs, paths, override, run, goal, fold, max_steps, seed,
-            attempts):
+            attempts, stop: threading.Event | None = None):
     """The attempts on one group (robots ``own`` (n,) bool; patches within ``allowed``,
-    or whole-array runs when it is None). Returns (best (robots, interior mask, StepRun,
-    steps until its interior arrived) or None, attempts made, attempts blocked by the ring,
-    the incomplete attempt that left fewest robots stuck (fewer than the group) or None)."""
+    or whole-array runs when it is None), until ``stop`` is set if given. Returns (best
+    (robots, interior mask, StepRun, steps until its interior arrived) or None, attempts
+    made, attempts blocked by the ring, the incomplete attempt that left fewest robots
+    stuck (fewer than the group) or None)."""
     seen = own.copy()                # robots stuck in the first run or any attempt
     everyone = np.arange(own.size)
     fewest = int(own.sum())
@@ -301,6 +335,8 @@ def _ladder(own, allowed, movable, pairs, paths, override, run, goal, fold, max_
     best = closest = None
     first_complete = -1
     for k in range(attempts):
+        if stop is not None and stop.is_set():
+            break
         hops, g, p = LADDER[k % len(LADDER)]
         if allowed is None:          # the whole array
             region = grow_region(pairs, seen, hops) & movable

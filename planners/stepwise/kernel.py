@@ -201,7 +201,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         _per_item(phobia, n), seed, ev_robot, ev_step, ev_angles, cur, greedy_first, script)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def run_stepwise_arrays(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                         fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
                         alpha_len, seg_start, seg_end, buffer, limits, step_deg, max_steps, md,

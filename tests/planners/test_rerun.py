@@ -2,6 +2,8 @@
 mixed runs it relies on; plans are declared clear only by the independent 2D checker."""
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 
@@ -78,22 +80,33 @@ def _paths(run: StepRun):
                        np.full((N_CHAIN, 2), 9.0), run.final, run.n_steps)
 
 
-def _ladder_of(results: list):
+def _ladder_of(results: list, whole: list | None = None):
     """A local run function that hands out ``(n_steps, stuck chain indices)`` in turn (or
-    "blocked") as runs of the patch it is given, and records its calls."""
-    calls = []
+    "blocked") as runs of the patch it is given, and records its calls. With ``whole``,
+    whole-array runs take theirs from that list instead (they run in a thread of their
+    own, beside the patches) and are recorded apart, in ``calls.whole``."""
+    calls = _Calls()
 
     def run(robots, script, movable, greed, phobia, greedy_first, seed, max_steps):
-        calls.append(dict(robots=robots.copy(), script=script, movable=movable.copy(),
-                          greed=greed.copy(), phobia=phobia.copy(), region=greedy_first.copy(),
-                          seed=seed, max_steps=max_steps))
-        got = results[len(calls) - 1]
+        mine = calls.whole if whole is not None and robots.size == N_CHAIN else calls
+        mine.append(dict(robots=robots.copy(), script=script, movable=movable.copy(),
+                         greed=greed.copy(), phobia=phobia.copy(), region=greedy_first.copy(),
+                         seed=seed, max_steps=max_steps))
+        got = (whole if mine is calls.whole else results)[len(mine) - 1]
         if got == "blocked":
             out = _fake(10, [], robots)
             out.replay_blocked = True
             return out
         return _fake(got[0], got[1], robots)
     return run, calls
+
+
+class _Calls(list):
+    """The patch runs' calls; ``whole``: the whole-array runs' calls."""
+
+    def __init__(self):
+        super().__init__()
+        self.whole: list = []
 
 
 def _rerun(first, run, whole: bool = False, **kw):
@@ -109,19 +122,47 @@ def _rerun(first, run, whole: bool = False, **kw):
 
 def test_groups_their_patches_leave_get_whole_array_runs_on_small_arrays():
     first = _fake(100, [12, 13])
-    # patches: no progress until the ladder stops; then whole-array runs: one completes
-    runs = [(125, [12, 13])] * (1 + PATIENCE) + [(125, [12]), (99, [])]
-    run, calls = _ladder_of(runs)
+    # patches: no progress until the ladder stops; whole-array runs: the second completes
+    patches = [(125, [12, 13])] * PATIENCE
+    whole = [(125, [12, 13]), (125, [12]), (99, [])]
+    run, calls = _ladder_of(patches, whole=whole)
     rr = _rerun(first, run, whole=True, seed=0, attempts=8)
-    assert rr.complete and rr.attempts == len(runs) and not rr.partial
-    assert calls[-1]["robots"].tolist() == list(range(N_CHAIN)) and calls[-1]["movable"].all()
-    assert np.diff(calls[-1]["script"][0]).sum() == 0           # nobody replays
+    assert rr.complete and rr.attempts == len(patches) + len(whole) and not rr.partial
+    assert len(calls) == len(patches) and len(calls.whole) == len(whole)
+    assert all(c["robots"].size < N_CHAIN for c in calls)
+    last = calls.whole[-1]
+    assert last["robots"].tolist() == list(range(N_CHAIN)) and last["movable"].all()
+    assert np.diff(last["script"][0]).sum() == 0           # nobody replays
     assert rr.solved.tolist() == np.isin(np.arange(N_CHAIN), [12, 13]).tolist()
     # none completes: the whole-array attempt with fewer stuck robots goes on, partial
-    run, _ = _ladder_of([(125, [12, 13])] * (1 + PATIENCE) + [(125, [12])] * 8)
+    run, _ = _ladder_of(patches, whole=[(125, [12, 13])] + [(125, [12])] * 8)
     rr = _rerun(first, run, whole=True, seed=0, attempts=8)
     assert rr.partial and not rr.complete and rr.solved.tolist() == (np.arange(N_CHAIN) == 13).tolist()
     assert rr.run.final[12].tolist() == [1.0, 1.0]
+
+
+def test_the_whole_array_ladder_runs_beside_the_patches_and_stops_when_they_suffice():
+    first = _fake(100, [12, 13])
+    gate = threading.Event()
+    whole_calls, patch_calls = [], []
+
+    def run(robots, script, movable, greed, phobia, greedy_first, seed, max_steps):
+        if robots.size == N_CHAIN:          # the whole-array ladder, in its own thread
+            whole_calls.append(threading.current_thread().name)
+            gate.wait(10.0)
+            return _fake(125, [12], robots)
+        patch_calls.append(threading.current_thread().name)
+        return _fake(90, [], robots)        # the first patch attempt completes the group
+
+    rr = _rerun(first, run, whole=True, seed=0, attempts=8)
+    assert rr.complete and not rr.partial and rr.attempts == 1 and rr.run.n_steps <= 100
+    assert patch_calls == [threading.current_thread().name]
+    gate.set()
+    for t in threading.enumerate():
+        if t.name.startswith("rerun-ahead"):
+            t.join(10.0)
+    # it was in its first attempt when the patches were done, and made no other
+    assert len(whole_calls) == 1 and whole_calls[0].startswith("rerun-ahead")
 
 
 def test_a_patch_is_the_region_its_margin_and_a_replaying_ring():
