@@ -82,7 +82,7 @@ def moving_collisions(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, ob
 SWEEP_FOUND, SWEEP_FAILED, SWEEP_BUDGET = 0, 1, 2
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
                  bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, hits):
     """The layer loop of :class:`rfp_twin.planners.roadmap.sweep._PathSweep` compiled, with
@@ -153,6 +153,45 @@ def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
             return SWEEP_FAILED, k, came[:k], nodes, checks
         reach, nxt = nxt, reach
         k += 1
+
+
+@njit(cache=True, nogil=True)
+def sweep_paths(Qs, Ds, q_ptr, frac, k_static, k_maxs, t0, dt, goal_after, nodes_left,
+                bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, hits, stop):
+    """:func:`sweep_layers` on paths ``m = 0, 1, ...`` in turn, until one finds the goal
+    or the node budget ends, as the sweep search calls it path after path.
+
+    Qs (sum of P_m + 1, 2), Ds (sum of P_m, 2) deg: the positions and forward steps of
+    every path, path m in rows ``q_ptr[m]:q_ptr[m + 1]`` of Qs and ``q_ptr[m] - m:
+    q_ptr[m + 1] - m - 1`` of Ds; k_maxs (M,) each path's last layer (-1: none);
+    nodes_left the budget of the first path (-1: none), each later path's being what
+    the paths before it left; the rest as :func:`sweep_layers`, ``hits`` added to;
+    ``stop`` (1,) uint8: when another thread sets it, no further path is started.
+    Returns (paths swept, outcome of the last one, its k_end, its came (k_end, P + 1)
+    int8, nodes (paths swept,) of each, checks made in all).
+    """
+    M = q_ptr.shape[0] - 1
+    nodes = np.zeros(M, dtype=np.int64)
+    checks = 0
+    left = nodes_left
+    outcome = SWEEP_FAILED
+    k_end = 0
+    came = np.zeros((0, 1), dtype=np.int8)
+    for m in range(M):
+        if stop[0] != 0:
+            return m, SWEEP_FAILED, 0, came, nodes[:m], checks
+        a = q_ptr[m]
+        b = q_ptr[m + 1]
+        outcome, k_end, came, n, c = sweep_layers(
+            Qs[a:b], Ds[a - m:b - m - 1], frac, k_static, k_maxs[m], t0, dt, goal_after, left,
+            bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, hits)
+        nodes[m] = n
+        checks += c
+        if left >= 0:
+            left = max(0, left - n)
+        if outcome != SWEEP_FAILED:
+            return m + 1, outcome, k_end, came, nodes[:m + 1], checks
+    return M, outcome, k_end, came, nodes, checks
 
 
 @njit(cache=True)

@@ -33,7 +33,8 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.planners.resolve_search.kernels import (moving_collisions, pair_conflict, reach_of,
-                                             segments_at, static_collisions, sweep_layers)
+                                             segments_at, static_collisions, sweep_layers,
+                                             sweep_paths)
 from rfp_twin.planners.resolve_search.paths import PathSet
 from rfp_twin.planners.roadmap import Arm, ArmTrajectory
 
@@ -214,13 +215,21 @@ class AlphaBetaWorld:
                                 int(k_max), float(t0), float(dt), float(goal_after),
                                 int(nodes_left), bx, by, l_alpha, s0, s1, obs_seg, obs_rho,
                                 obs_d, obs_th, hits)
+        sweep.hits = hits            # the blocker counts it adds to
+
+        def sweep_many(Qs, Ds, q_ptr, frac, k_static, k_maxs, t0, dt, goal_after, nodes_left,
+                       hits_out, stop):
+            return sweep_paths(Qs, Ds, q_ptr, np.ascontiguousarray(frac, dtype=np.float64),
+                               int(k_static), k_maxs, float(t0), float(dt), float(goal_after),
+                               int(nodes_left), bx, by, l_alpha, s0, s1, obs_seg, obs_rho,
+                               obs_d, obs_th, hits_out, stop)
 
         v = np.full(2, self.step_deg)
         return Arm(start=np.asarray(start, dtype=np.float64), goal=np.asarray(goal, dtype=np.float64),
                    vmax=v, forbidden=forbidden, collides=collides,
                    lower=limits[[0, 2]].copy(), upper=limits[[1, 3]].copy(),
                    t_start=float(t_start), hold_until=float(t_last), t_static=float(t_last),
-                   via=partial(self.via, robot=i), sweep=sweep,
+                   via=partial(self.via, robot=i), sweep=sweep, sweep_paths=sweep_many,
                    edge_memo=self.edge_memos.setdefault((i, tuple(statics)), {}))
 
     def via(self, start: np.ndarray, goal: np.ndarray, robot: int) -> list[np.ndarray]:

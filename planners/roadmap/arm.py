@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from numba import njit
 
 from rfp_twin.models.errors import SpecError, field_error
 
@@ -55,6 +56,12 @@ class Arm:
         ``sweep(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left) -> (outcome
         0 found / 1 failed / 2 budget, k_end, came (k_end, P + 1) int8, nodes, checks)``,
         indices -1 for none (:func:`rfp_twin.planners.resolve_search.kernels.sweep_layers`)
+    sweep_paths : callable or None, ``sweep`` on several paths in one call, stopping at
+        the first that finds the goal, for the batched loop of
+        :mod:`rfp_twin.planners.roadmap.sweep_batches` (needs ``sweep``, with the
+        blocker counts it adds to as its ``hits`` attribute):
+        ``sweep_paths(Qs, Ds, q_ptr, frac, k_static, k_maxs, t0, dt, goal_after,
+        nodes_left, hits, stop)`` (:func:`rfp_twin.planners.resolve_search.kernels.sweep_paths`)
     edge_memo : dict or None, where :func:`rfp_twin.planners.roadmap.plan_arm` keeps which
         straight edges avoid ``forbidden``: arms that share one ``forbidden`` (the same
         robot planned again with other moving obstacles) may share it, so that an edge is
@@ -76,6 +83,7 @@ class Arm:
     via: Callable[[np.ndarray, np.ndarray], list] | None = None
     sweep: Callable | None = None
     edge_memo: dict | None = None
+    sweep_paths: Callable | None = None
 
     @property
     def dim(self) -> int:
@@ -201,24 +209,56 @@ class SearchStats:
 
 
 def _compress(times: np.ndarray, configs: np.ndarray, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
-    """Drop breakpoints that linear interpolation reproduces (and zero-time duplicates)."""
-    keep = [0]
-    for k in range(1, len(times)):
-        if times[k] == times[keep[-1]] and np.allclose(configs[k], configs[keep[-1]], atol=tol):
-            continue
-        keep.append(k)
+    """Drop breakpoints that linear interpolation reproduces (and zero-time duplicates).
+
+    times (k,), configs (k, d): two passes of :func:`_compress_keep` (compiled; equality as
+    ``np.allclose(x, y, atol=tol)``, relative tolerance 1e-5 of ``y``)."""
+    times = np.ascontiguousarray(times, dtype=np.float64)
+    configs = np.ascontiguousarray(configs, dtype=np.float64)
+    keep = _compress_keep(times, configs, tol, False)
     times, configs = times[keep], configs[keep]
     if len(times) <= 2:
         return times, configs
-    out = [0]
-    for k in range(1, len(times) - 1):
-        a, b = out[-1], k + 1
+    out = _compress_keep(times, configs, tol, True)
+    return times[out], configs[out]
+
+
+@njit(cache=True)
+def _close(x, y, tol):
+    """``np.allclose(x, y, atol=tol)`` of two (d,) rows."""
+    for c in range(x.shape[0]):
+        if not abs(x[c] - y[c]) <= tol + 1e-5 * abs(y[c]):
+            return False
+    return True
+
+
+@njit(cache=True)
+def _compress_keep(times, configs, tol, interpolated):
+    """Indices kept: without ``interpolated``, each breakpoint that is not a zero-time
+    duplicate of the last kept one; with it, the ends and each breakpoint that linear
+    interpolation between the last kept one and the next does not reproduce."""
+    k_n = times.shape[0]
+    out = np.empty(k_n, dtype=np.int64)
+    out[0] = 0
+    m = 1
+    if not interpolated:
+        for k in range(1, k_n):
+            a = out[m - 1]
+            if times[k] == times[a] and _close(configs[k], configs[a], tol):
+                continue
+            out[m] = k
+            m += 1
+        return out[:m]
+    for k in range(1, k_n - 1):
+        a, b = out[m - 1], k + 1
         span = times[b] - times[a]
         if span <= 0:
-            out.append(k)
+            out[m] = k
+            m += 1
             continue
         pred = configs[a] + (times[k] - times[a]) / span * (configs[b] - configs[a])
-        if not np.allclose(pred, configs[k], atol=tol):
-            out.append(k)
-    out.append(len(times) - 1)
-    return times[out], configs[out]
+        if not _close(pred, configs[k], tol):
+            out[m] = k
+            m += 1
+    out[m] = k_n - 1
+    return out[:m + 1]

@@ -10,9 +10,11 @@ departure times (latest first). Joint and time units are the caller's.
 """
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import replace
+from typing import Iterator
 
 import numpy as np
 
@@ -21,6 +23,7 @@ from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, S
 from rfp_twin.planners.roadmap.graph import Roadmap, _check_step, _EdgeFeasibility, build_roadmap
 from rfp_twin.planners.roadmap.search import _PathSearch
 from rfp_twin.planners.roadmap.sweep import _PathSweep
+from rfp_twin.planners.roadmap.sweep_batches import search_batched
 
 
 def goal_clear_after(arm: Arm, settings: RoadmapSettings) -> float:
@@ -92,21 +95,20 @@ def plan_arm(arm: Arm, settings: RoadmapSettings, rng: np.random.Generator,
 
 def _search_roadmap(arm: Arm, roadmap: Roadmap, settings: RoadmapSettings, stats: SearchStats,
                     clear_after: float, feasible: _EdgeFeasibility) -> ArmTrajectory | None:
-    """Algorithm 2's loop: paths cheapest first, the first one that gets a trajectory."""
-    tried = 0
-    for path, est in zip(roadmap.paths, roadmap.est_times):
-        if settings.max_paths is not None and tried >= settings.max_paths:
-            break
-        if settings.max_path_time is not None and est > settings.max_path_time:
-            break
-        # drop zero-length edges (a vertex on the start or goal)
-        same = np.all(np.abs(path[1:] - path[:-1]) <= 1e-8 + 1e-5 * np.abs(path[:-1]), axis=1)
-        path = path[np.concatenate([[True], ~same])]
-        if len(path) < 2:
-            path = np.stack([path[0], path[0]])
-        if not all(feasible.ok(path[k], path[k + 1]) for k in range(len(path) - 1)):
-            continue
-        tried += 1
+    """Algorithm 2's loop: paths cheapest first, the first one that gets a trajectory
+    (with a compiled sweep of several paths, in batches on two cores:
+    :mod:`rfp_twin.planners.roadmap.sweep_batches`, the same result)."""
+    paths = _candidates(roadmap, settings, feasible)
+    if settings.search == "sweep" and arm.sweep_paths is not None and arm.sweep is not None:
+        first = next(paths, None)
+        if first is None:
+            return None
+        probe = _PathSweep(arm, first, settings, stats, clear_after)
+        if not probe.start_collides():
+            return search_batched(arm, itertools.chain([first], paths), settings, stats,
+                                  clear_after)
+        paths = itertools.chain([first], paths)
+    for path in paths:
         stats.paths_tried += 1
         searcher = _PathSweep if settings.search == "sweep" else _PathSearch
         result = searcher(arm, path, settings, stats, clear_after).run()
@@ -115,6 +117,27 @@ def _search_roadmap(arm: Arm, roadmap: Roadmap, settings: RoadmapSettings, stats
         if stats.budget_exhausted:
             break
     return None
+
+
+def _candidates(roadmap: Roadmap, settings: RoadmapSettings,
+                feasible: _EdgeFeasibility) -> Iterator[np.ndarray]:
+    """The roadmap's paths to try, in order: zero-length edges dropped, edges through the
+    forbidden zone skipped, at most ``max_paths`` and none slower than ``max_path_time``."""
+    tried = 0
+    for path, est in zip(roadmap.paths, roadmap.est_times):
+        if settings.max_paths is not None and tried >= settings.max_paths:
+            return
+        if settings.max_path_time is not None and est > settings.max_path_time:
+            return
+        # drop zero-length edges (a vertex on the start or goal)
+        same = np.all(np.abs(path[1:] - path[:-1]) <= 1e-8 + 1e-5 * np.abs(path[:-1]), axis=1)
+        path = path[np.concatenate([[True], ~same])]
+        if len(path) < 2:
+            path = np.stack([path[0], path[0]])
+        if not all(feasible.ok(path[k], path[k + 1]) for k in range(len(path) - 1)):
+            continue
+        tried += 1
+        yield path
 
 
 def _lead_in_at(arm: Arm, t: float) -> np.ndarray:

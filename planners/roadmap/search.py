@@ -29,7 +29,6 @@ import math
 import numpy as np
 
 from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats, _compress
-from rfp_twin.planners.roadmap.graph import edge_time
 
 
 def _neighbour_actions(ns: int, m: int, n_stop: int | None) -> list[tuple[int, int]]:
@@ -72,9 +71,9 @@ class _PathWalk:
         self.stats = stats
         self.goal_clear_after = goal_clear_after
         vmax = np.asarray(arm.vmax, dtype=np.float64)
-        self.n_seg = [max(1, int(math.ceil(edge_time(path[e], path[e + 1], vmax) / settings.dt
-                                           - 1e-9)))
-                      for e in range(len(path) - 1)]
+        # edge_time of every edge (Eq. 5), in dt steps, rounded up
+        steps = np.max(np.abs(np.diff(np.asarray(path), axis=0)) / vmax, axis=1) / settings.dt
+        self.n_seg = [max(1, int(math.ceil(x - 1e-9))) for x in steps.tolist()]
         self.n_sub = settings.n_sub
         self.frac = np.arange(1, self.n_sub + 1) / self.n_sub   # sub-check offsets in an action
 

@@ -115,22 +115,20 @@ class _PathSweep(_PathWalk):
     def __init__(self, arm: Arm, path: np.ndarray, settings: RoadmapSettings,
                  stats: SearchStats, goal_clear_after: float):
         super().__init__(arm, path, settings, stats, goal_clear_after)
-        pts = [np.asarray(path[0], dtype=np.float64)[None, :]]
-        self.vertex_pos = []
-        for e, n in enumerate(self.n_seg):
-            f = np.arange(1, n + 1)[:, None] / n
-            pts.append(path[e][None, :] + f * (path[e + 1] - path[e])[None, :])
-            self.vertex_pos.append(sum(len(p) for p in pts) - 1)
-        self.Q = np.vstack(pts)                      # (P + 1, d) configurations
+        path = np.asarray(path, dtype=np.float64)
+        n = np.asarray(self.n_seg, dtype=np.int64)
+        ends = np.cumsum(n)
+        # position j = 1..n of edge e is path[e] + (j / n) (path[e + 1] - path[e])
+        e = np.repeat(np.arange(n.size), n)
+        f = ((np.arange(1, ends[-1] + 1) - np.repeat(ends - n, n)) / np.repeat(n, n))[:, None]
+        self.vertex_pos = ends.tolist()              # index in Q of each edge's end vertex
+        self.Q = np.vstack([path[:1], path[e] + f * (path[e + 1] - path[e])])   # (P + 1, d)
         self.D = np.diff(self.Q, axis=0)             # (P, d) forward step from each position
 
     def run(self) -> ArmTrajectory | None:
         s = self.s
         P = len(self.Q) - 1
-        k_static, k_max = self.time_bounds()
-        if k_static is not None:
-            k_bound = k_static + P + 1            # after t_static only forward moves help
-            k_max = k_bound if k_max is None else min(k_max, k_bound)
+        k_static, k_max = self.bounds()          # after t_static only forward moves help
         if self.start_collides():
             return None
         if self.arm.sweep is not None:
@@ -160,6 +158,15 @@ class _PathSweep(_PathWalk):
             came.append(how)
             reach = nxt
             k += 1
+
+    def bounds(self) -> tuple[int | None, int | None]:
+        """(k_static, k_max) of :meth:`run`: k_max also bounded by the path's length
+        (once the obstacles have stopped, only forward moves help)."""
+        k_static, k_max = self.time_bounds()
+        if k_static is not None:
+            k_bound = k_static + len(self.Q)
+            k_max = k_bound if k_max is None else min(k_max, k_bound)
+        return k_static, k_max
 
     def _run_compiled(self, k_static: int | None, k_max: int | None) -> ArmTrajectory | None:
         """The layer loop run by the arm's compiled ``sweep`` (same queries and result)."""
