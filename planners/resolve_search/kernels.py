@@ -231,6 +231,36 @@ def static_collisions(q, bx, by, l_alpha, s0, s1, limits, st_seg, st_th, pt_xy, 
         out[r] = hit
 
 
+@njit(cache=True, nogil=True)
+def edges_forbidden(q0s, q1s, step, bx, by, l_alpha, s0, s1, limits, st_seg, st_th, pt_xy,
+                    pt_th, out, counts):
+    """:func:`static_collisions` along straight edges: ``out[e]`` is True when a point
+    of edge ``q0s[e] -> q1s[e]`` ((E, 2) deg each) is forbidden, the points being those
+    of :func:`rfp_twin.planners.roadmap.graph._edge_samples` at most ``step`` (2,) deg
+    apart per joint (ends included, as ``np.linspace`` places them); an edge stops at its
+    first forbidden point. ``counts[e]``: the edge's number of points (E,) int64."""
+    q = np.empty((1, 2))
+    one = np.empty(1, dtype=np.bool_)
+    for e in range(q0s.shape[0]):
+        mx = 0.0
+        for c in range(2):
+            mx = max(mx, abs(q1s[e, c] - q0s[e, c]) / step[c])
+        n = max(1, int(math.ceil(mx - 1e-9)))
+        counts[e] = n + 1
+        inc = 1.0 / n
+        hit = False
+        for j in range(n + 1):
+            f = 1.0 if j == n else j * inc
+            for c in range(2):
+                q[0, c] = q0s[e, c] + f * (q1s[e, c] - q0s[e, c])
+            static_collisions(q, bx, by, l_alpha, s0, s1, limits, st_seg, st_th, pt_xy, pt_th,
+                              one)
+            if one[0]:
+                hit = True
+                break
+        out[e] = hit
+
+
 @njit(cache=True)
 def pair_conflict(seg_a, seg_b, th):
     """True when two robots' segments (T, 4) come within th mm at the same step."""

@@ -34,7 +34,7 @@ import numpy as np
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.planners.resolve_search.kernels import (moving_collisions, pair_conflict, reach_of,
                                              segments_at, static_collisions, sweep_layers,
-                                             sweep_paths)
+                                             sweep_paths, edges_forbidden)
 from rfp_twin.planners.resolve_search.paths import PathSet
 from rfp_twin.planners.roadmap import Arm, ArmTrajectory
 
@@ -208,6 +208,15 @@ class AlphaBetaWorld:
                        st_seg, st_th, pt_xy, pt_th, out)
             return out
 
+        def along_edges(q0s: np.ndarray, q1s: np.ndarray, step: np.ndarray):
+            out = np.empty(q0s.shape[0], dtype=np.bool_)
+            counts = np.empty(q0s.shape[0], dtype=np.int64)
+            edges_forbidden(np.ascontiguousarray(q0s, dtype=np.float64),
+                            np.ascontiguousarray(q1s, dtype=np.float64),
+                            np.ascontiguousarray(step, dtype=np.float64), bx, by, l_alpha, s0,
+                            s1, limits, st_seg, st_th, pt_xy, pt_th, out, counts)
+            return out, counts
+
         def sweep(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left):
             return sweep_layers(np.ascontiguousarray(Q, dtype=np.float64),
                                 np.ascontiguousarray(D, dtype=np.float64),
@@ -230,6 +239,7 @@ class AlphaBetaWorld:
                    lower=limits[[0, 2]].copy(), upper=limits[[1, 3]].copy(),
                    t_start=float(t_start), hold_until=float(t_last), t_static=float(t_last),
                    via=partial(self.via, robot=i), sweep=sweep, sweep_paths=sweep_many,
+                   edges_forbidden=along_edges,
                    edge_memo=self.edge_memos.setdefault((i, tuple(statics)), {}))
 
     def via(self, start: np.ndarray, goal: np.ndarray, robot: int) -> list[np.ndarray]:

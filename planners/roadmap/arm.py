@@ -62,6 +62,10 @@ class Arm:
         blocker counts it adds to as its ``hits`` attribute):
         ``sweep_paths(Qs, Ds, q_ptr, frac, k_static, k_maxs, t0, dt, goal_after,
         nodes_left, hits, stop)`` (:func:`rfp_twin.planners.resolve_search.kernels.sweep_paths`)
+    edges_forbidden : callable or None, ``forbidden`` along many straight edges in one
+        call: ``edges_forbidden(q0s (E, d), q1s (E, d), step (d,)) -> (any point forbidden
+        (E,) bool, points (E,) int)``, the points as :func:`rfp_twin.planners.roadmap.graph._edge_samples`
+        places them
     edge_memo : dict or None, where :func:`rfp_twin.planners.roadmap.plan_arm` keeps which
         straight edges avoid ``forbidden``: arms that share one ``forbidden`` (the same
         robot planned again with other moving obstacles) may share it, so that an edge is
@@ -84,6 +88,7 @@ class Arm:
     sweep: Callable | None = None
     edge_memo: dict | None = None
     sweep_paths: Callable | None = None
+    edges_forbidden: Callable | None = None
 
     @property
     def dim(self) -> int:

@@ -10,6 +10,8 @@ caller's units.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -95,6 +97,46 @@ def _sweep_advance(hit, src, act, K, P):
                 nxt[p2] = True
                 how[p2] = act[b]
     return nxt, how
+
+
+@njit(cache=True)
+def path_positions(pts, p_ptr, vmax, dt):
+    """The sweep positions of several roadmap paths at once, as :class:`_PathSweep`
+    builds them one path at a time: path m is ``pts[p_ptr[m]:p_ptr[m + 1]]`` ((k_m, d)
+    vertices); edge e is cut into ``n = max(1, ceil(max_c |dq_c| / vmax_c / dt))`` steps,
+    position j of it at ``q_e + (j / n) dq``. Returns (Qs (sum of P_m + 1, d) positions,
+    Ds (sum of P_m, d) forward steps, q_ptr (M + 1,): path m's rows of Qs; its rows of Ds
+    are ``q_ptr[m] - m:q_ptr[m + 1] - m - 1``)."""
+    M = p_ptr.shape[0] - 1
+    d = pts.shape[1]
+    q_ptr = np.zeros(M + 1, dtype=np.int64)
+    n_seg = np.zeros(pts.shape[0], dtype=np.int64)
+    for m in range(M):
+        total = 1
+        for e in range(p_ptr[m], p_ptr[m + 1] - 1):
+            x = 0.0
+            for c in range(d):
+                x = max(x, abs(pts[e + 1, c] - pts[e, c]) / vmax[c])
+            n_seg[e] = max(1, int(math.ceil(x / dt - 1e-9)))
+            total += n_seg[e]
+        q_ptr[m + 1] = q_ptr[m] + total
+    Qs = np.empty((q_ptr[M], d))
+    Ds = np.empty((q_ptr[M] - M, d))
+    for m in range(M):
+        r = q_ptr[m]
+        Qs[r] = pts[p_ptr[m]]
+        r += 1
+        for e in range(p_ptr[m], p_ptr[m + 1] - 1):
+            n = n_seg[e]
+            for j in range(1, n + 1):
+                f = j / n
+                for c in range(d):
+                    Qs[r, c] = pts[e, c] + f * (pts[e + 1, c] - pts[e, c])
+                r += 1
+        for i in range(q_ptr[m], q_ptr[m + 1] - 1):
+            for c in range(d):
+                Ds[i - m, c] = Qs[i + 1, c] - Qs[i, c]
+    return Qs, Ds, q_ptr
 
 
 class _PathSweep(_PathWalk):

@@ -19,14 +19,15 @@ Units: joint angles as the arm's; time in the arm's units (planner steps here).
 """
 from __future__ import annotations
 
+import itertools
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Iterator
 
 import numpy as np
 
-from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats
-from rfp_twin.planners.roadmap.sweep import _PathSweep
+from rfp_twin.planners.roadmap.arm import ArmTrajectory, SearchStats
+from rfp_twin.planners.roadmap.sweep import _PathSweep, path_positions
 
 #: Outcomes of ``Arm.sweep_paths`` (those of the compiled layer loop).
 FOUND, FAILED, BUDGET = 0, 1, 2
@@ -49,65 +50,62 @@ def _worker() -> ThreadPoolExecutor:
 
 
 class _Batch:
-    """Paths (their prepared sweeps) swept by one ``sweep_paths`` call."""
+    """Roadmap paths swept by one ``sweep_paths`` call (positions built by
+    :func:`rfp_twin.planners.roadmap.sweep.path_positions`, as each path's
+    :class:`_PathSweep` would build them)."""
 
-    def __init__(self, sweeps: list[_PathSweep], k_static: int):
-        self.sweeps = sweeps
-        q_ptr = np.zeros(len(sweeps) + 1, dtype=np.int64)
-        q_ptr[1:] = np.cumsum([len(sw.Q) for sw in sweeps])
-        self.q_ptr = q_ptr
-        self.Qs = np.ascontiguousarray(np.vstack([sw.Q for sw in sweeps]), dtype=np.float64)
-        self.Ds = np.ascontiguousarray(np.vstack([sw.D for sw in sweeps]), dtype=np.float64)
-        k_max = [sw.bounds()[1] for sw in sweeps]
-        self.k_maxs = np.array([-1 if k is None else k for k in k_max], dtype=np.int64)
-        self.k_static = k_static
+    def __init__(self, paths: list[np.ndarray], probe: _PathSweep):
+        self.paths = paths
+        self.probe = probe
+        pts = np.ascontiguousarray(np.vstack(paths), dtype=np.float64)
+        p_ptr = np.zeros(len(paths) + 1, dtype=np.int64)
+        p_ptr[1:] = np.cumsum([len(p) for p in paths])
+        self.Qs, self.Ds, self.q_ptr = path_positions(
+            pts, p_ptr, np.asarray(probe.arm.vmax, dtype=np.float64), float(probe.s.dt))
+        k_static, k_max = probe.time_bounds()
+        k_maxs = np.full(len(paths), -1 if k_max is None else k_max, dtype=np.int64)
+        if k_static is not None:                 # as _PathSweep.bounds: + the path's length
+            bound = k_static + np.diff(self.q_ptr)
+            k_maxs = bound if k_max is None else np.minimum(k_maxs, bound)
+        self.k_maxs = np.ascontiguousarray(k_maxs, dtype=np.int64)
+        self.k_static = -1 if k_static is None else k_static
         self.hits: np.ndarray | None = None
         self.stop = np.zeros(1, dtype=np.uint8)     # set: stop before the next path
         self.out = None
 
-    def sweep(self, arm: Arm, settings: RoadmapSettings, left: int) -> _Batch:
+    def sweep(self, left: int) -> _Batch:
         """Sweep with node budget ``left`` (-1: none) into a blocker count of its own."""
-        first = self.sweeps[0]
-        self.hits = np.zeros_like(arm.sweep.hits)
-        self.out = arm.sweep_paths(self.Qs, self.Ds, self.q_ptr, first.frac, self.k_static,
-                                   self.k_maxs, first.time(0), settings.dt,
-                                   first.goal_clear_after, left, self.hits, self.stop)
+        p = self.probe
+        self.hits = np.zeros_like(p.arm.sweep.hits)
+        self.out = p.arm.sweep_paths(self.Qs, self.Ds, self.q_ptr, p.frac, self.k_static,
+                                     self.k_maxs, p.time(0), p.s.dt, p.goal_clear_after, left,
+                                     self.hits, self.stop)
         return self
 
 
-def _prepared(arm: Arm, paths: Iterator[np.ndarray], settings: RoadmapSettings,
-              stats: SearchStats, clear_after: float, n: int) -> list[_PathSweep]:
-    out = []
-    for path in paths:
-        out.append(_PathSweep(arm, path, settings, stats, clear_after))
-        if len(out) == n:
-            break
-    return out
+def _take(paths: Iterator[np.ndarray], n: int) -> list[np.ndarray]:
+    return list(itertools.islice(paths, n))
 
 
-def search_batched(arm: Arm, paths: Iterator[np.ndarray], settings: RoadmapSettings,
-                   stats: SearchStats, clear_after: float) -> ArmTrajectory | None:
+def search_batched(probe: _PathSweep, paths: Iterator[np.ndarray],
+                   stats: SearchStats) -> ArmTrajectory | None:
     """The first of ``paths`` (the roadmap's, filtered and in order, at most
     ``settings.max_paths``) that gets a trajectory, or None; ``stats`` as the one-by-one
-    loop leaves them. ``arm.sweep_paths`` must be set and the start clear."""
+    loop leaves them. ``probe``: the sweep of the first path (its arm, with
+    ``sweep_paths``, settings and goal time serve them all); its start must be clear."""
     sizes = iter(BATCH_SIZES)
-    size = next(sizes)
-    pending = _prepared(arm, paths, settings, stats, clear_after, size)
-    if not pending:
-        return None
-    k_static = pending[0].bounds()[0]
-    k_static = -1 if k_static is None else k_static
-    limit = settings.max_nodes
+    pending = [probe.path] + _take(paths, next(sizes) - 1)
+    limit = probe.s.max_nodes
     while pending:
-        here = _Batch(pending, k_static)
-        ahead_sweeps = _prepared(arm, paths, settings, stats, clear_after, len(pending))
+        here = _Batch(pending, probe)
+        ahead_paths = _take(paths, len(pending))
         left = -1 if limit is None else max(0, limit - stats.nodes)
         ahead = next_batch = None
-        if ahead_sweeps:
+        if ahead_paths:
             # the next batch, optimistically with the budget left before this one
-            next_batch = _Batch(ahead_sweeps, k_static)
-            ahead = _worker().submit(next_batch.sweep, arm, settings, left)
-        result, stop = _consume(here.sweep(arm, settings, left), arm, stats)
+            next_batch = _Batch(ahead_paths, probe)
+            ahead = _worker().submit(next_batch.sweep, left)
+        result, stop = _consume(here.sweep(left), stats)
         if stop:
             if ahead is not None:
                 next_batch.stop[0] = 1      # unused: it stops before its next path
@@ -118,25 +116,27 @@ def search_batched(arm: Arm, paths: Iterator[np.ndarray], settings: RoadmapSetti
         later = ahead.result()
         true_left = -1 if limit is None else max(0, limit - stats.nodes)
         if true_left >= 0 and (later.out[1] == BUDGET or int(later.out[4].sum()) >= true_left):
-            later.sweep(arm, settings, true_left)   # the budget would have ended it sooner
-        result, stop = _consume(later, arm, stats)
+            later.sweep(true_left)           # the budget would have ended it sooner
+        result, stop = _consume(later, stats)
         if stop:
             return result
-        size = next(sizes, size)
-        pending = _prepared(arm, paths, settings, stats, clear_after, size)
+        pending = _take(paths, next(sizes, len(pending)))
     return None
 
 
-def _consume(batch: _Batch, arm: Arm, stats: SearchStats) -> tuple[ArmTrajectory | None, bool]:
+def _consume(batch: _Batch, stats: SearchStats) -> tuple[ArmTrajectory | None, bool]:
     """Count ``batch``'s sweeps in ``stats`` and its blockers in the arm's count; return
     (trajectory or None, whether the search ends here)."""
     n_done, outcome, k_end, came, nodes, checks = batch.out
+    p = batch.probe
     stats.paths_tried += int(n_done)
     stats.nodes += int(nodes.sum())
     stats.checks += int(checks)
-    arm.sweep.hits += batch.hits
+    p.arm.sweep.hits += batch.hits
     if outcome == FOUND:
-        return batch.sweeps[int(n_done) - 1]._trajectory(came, int(k_end)), True
+        path = batch.paths[int(n_done) - 1]
+        sweep = p if path is p.path else _PathSweep(p.arm, path, p.s, stats, p.goal_clear_after)
+        return sweep._trajectory(came, int(k_end)), True
     if outcome == BUDGET:
         stats.budget_exhausted = True
         return None, True
