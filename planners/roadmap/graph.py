@@ -140,7 +140,9 @@ def build_roadmap(arm: Arm, settings: RoadmapSettings, rng: np.random.Generator,
     edges_arr = np.array(edges, dtype=np.int64).reshape(-1, 2)
 
     paths = [np.stack([start, goal])]
-    paths += [np.stack([start, v, goal]) for v in verts]
+    via_one = np.empty((len(verts), 3, d))         # start -> v -> goal for every vertex v
+    via_one[:, 0], via_one[:, 1], via_one[:, 2] = start, verts, goal
+    paths += list(via_one)
     for i, j in edges:
         paths.append(np.stack([start, verts[i], verts[j], goal]))
         paths.append(np.stack([start, verts[j], verts[i], goal]))
