@@ -22,6 +22,7 @@ Units: joint angles as the arm's; time in the arm's units (planner steps here).
 from __future__ import annotations
 
 import itertools
+import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Iterator
@@ -44,11 +45,22 @@ _WORKER_LOCK = threading.Lock()
 
 
 def _worker() -> ThreadPoolExecutor:
+    """The process's worker thread for the batches swept ahead (made on first use)."""
     global _WORKER
     with _WORKER_LOCK:
         if _WORKER is None:
             _WORKER = ThreadPoolExecutor(1, thread_name_prefix="sweep-batch")
         return _WORKER
+
+
+def _forget_worker() -> None:
+    """In a forked child the parent's worker thread does not exist: make a new one."""
+    global _WORKER, _WORKER_LOCK
+    _WORKER = None
+    _WORKER_LOCK = threading.Lock()
+
+
+os.register_at_fork(after_in_child=_forget_worker)
 
 
 class _Batch:

@@ -132,3 +132,34 @@ def test_edges_checked_together_get_the_answers_of_one_at_a_time():
     feasible = _EdgeFeasibility(replace(arm, edge_memo={}), step)
     feasible.prefetch([np.stack([a, b]) for a, b in zip(q0, q1)])
     assert [feasible.ok(a, b) for a, b in zip(q0, q1)] == (~want).tolist()
+
+
+def test_a_forked_child_searches_with_a_worker_of_its_own():
+    """A process forked after a search (e.g. a process pool) must not wait on the
+    parent's worker thread, which it does not have."""
+    import multiprocessing
+
+    world, fold, c, step = _world(stays=True)
+    arm = world.arm(c, fold[c], np.array([0.0, 90.0]))
+    settings = SearchResolveSettings(search="sweep").roadmap_settings(step)
+    before = _both(arm, settings)[0]              # the parent's worker exists now
+    _FORKED[:] = [arm, settings]                  # the child has them by the fork
+    ctx = multiprocessing.get_context("fork")
+    out = ctx.Queue()
+    child = ctx.Process(target=_child_search, args=(out,), daemon=True)
+    child.start()
+    got = out.get(timeout=60)
+    child.join(30)
+    assert child.exitcode == 0 and got == before[:4] and got[1] == settings.max_paths
+
+
+_FORKED: list = []
+
+
+def _child_search(out):
+    arm, settings = _FORKED
+    a = replace(arm, edge_memo={})
+    a.sweep.hits[:] = 0
+    tr, st = plan_arm(a, settings, np.random.default_rng(3))
+    out.put((None if tr is None else (tr.times.tolist(), tr.configs.tolist()),
+             st.paths_tried, st.nodes, st.budget_exhausted))
