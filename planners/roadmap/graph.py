@@ -71,7 +71,7 @@ class _EdgeFeasibility:
         keys, q0s, q1s = [], [], []
         for path in paths:
             for k in range(len(path) - 1):
-                key = np.concatenate([path[k], path[k + 1], self.step]).tobytes()
+                key = self._key(path[k], path[k + 1])
                 if key not in self.memo:
                     self.memo[key] = None            # placeholder: one check per edge
                     keys.append(key)
@@ -84,8 +84,12 @@ class _EdgeFeasibility:
         for key, h in zip(keys, hit.tolist()):
             self.memo[key] = not h
 
+    def _key(self, q0: np.ndarray, q1: np.ndarray) -> bytes:
+        """The memo key of edge q0 -> q1 (with the check step: memos are shared)."""
+        return np.concatenate([q0, q1, self.step]).tobytes()
+
     def ok(self, q0: np.ndarray, q1: np.ndarray) -> bool:
-        key = np.concatenate([q0, q1, self.step]).tobytes()
+        key = self._key(q0, q1)
         hit = self.memo.get(key)
         if hit is None:
             pts = _edge_samples(q0, q1, self.step)

@@ -123,29 +123,21 @@ def _candidates(roadmap: Roadmap, settings: RoadmapSettings,
     """The roadmap's paths to try, in order: zero-length edges dropped, edges through the
     forbidden zone skipped, at most ``max_paths`` and none slower than ``max_path_time``.
     The edges of the next :data:`EDGE_BLOCK` paths are checked together."""
-    tried = 0
-    block: list = []
-    for path, est in zip(roadmap.paths, roadmap.est_times):
-        if settings.max_path_time is not None and est > settings.max_path_time:
-            break
-        # drop zero-length edges (a vertex on the start or goal)
-        same = np.all(np.abs(path[1:] - path[:-1]) <= 1e-8 + 1e-5 * np.abs(path[:-1]), axis=1)
-        path = path[np.concatenate([[True], ~same])]
-        if len(path) < 2:
-            path = np.stack([path[0], path[0]])
-        block.append(path)
-        if len(block) == EDGE_BLOCK:
-            for p in _feasible(block, feasible):
-                if settings.max_paths is not None and tried >= settings.max_paths:
-                    return
-                tried += 1
-                yield p
-            block = []
-    for p in _feasible(block, feasible):
-        if settings.max_paths is not None and tried >= settings.max_paths:
-            return
-        tried += 1
-        yield p
+    def cleaned() -> Iterator[np.ndarray]:
+        for path, est in zip(roadmap.paths, roadmap.est_times):
+            if settings.max_path_time is not None and est > settings.max_path_time:
+                return
+            # drop zero-length edges (a vertex on the start or goal)
+            same = np.all(np.abs(path[1:] - path[:-1]) <= 1e-8 + 1e-5 * np.abs(path[:-1]),
+                          axis=1)
+            path = path[np.concatenate([[True], ~same])]
+            yield path if len(path) >= 2 else np.stack([path[0], path[0]])
+
+    def clear(paths: Iterator[np.ndarray]) -> Iterator[np.ndarray]:
+        while block := list(itertools.islice(paths, EDGE_BLOCK)):
+            yield from _feasible(block, feasible)
+
+    return itertools.islice(clear(cleaned()), settings.max_paths)
 
 
 #: Roadmap paths whose edges :func:`_candidates` checks in one call.

@@ -139,6 +139,16 @@ def path_positions(pts, p_ptr, vmax, dt):
     return Qs, Ds, q_ptr
 
 
+def length_bound(k_static, k_max, n_positions):
+    """The last layer a sweep along a path of ``n_positions`` positions (an int or an
+    array of them) expands: once the obstacles have stopped (layer ``k_static``), only
+    forward moves help, so ``k_static + n_positions``, within ``k_max`` (None: no bound)."""
+    if k_static is None:
+        return k_max
+    bound = k_static + n_positions
+    return bound if k_max is None else np.minimum(k_max, bound)
+
+
 class _PathSweep(_PathWalk):
     """Earliest-arrival search along one roadmap path, one time layer at a time.
 
@@ -157,15 +167,12 @@ class _PathSweep(_PathWalk):
     def __init__(self, arm: Arm, path: np.ndarray, settings: RoadmapSettings,
                  stats: SearchStats, goal_clear_after: float):
         super().__init__(arm, path, settings, stats, goal_clear_after)
-        path = np.asarray(path, dtype=np.float64)
-        n = np.asarray(self.n_seg, dtype=np.int64)
-        ends = np.cumsum(n)
-        # position j = 1..n of edge e is path[e] + (j / n) (path[e + 1] - path[e])
-        e = np.repeat(np.arange(n.size), n)
-        f = ((np.arange(1, ends[-1] + 1) - np.repeat(ends - n, n)) / np.repeat(n, n))[:, None]
-        self.vertex_pos = ends.tolist()              # index in Q of each edge's end vertex
-        self.Q = np.vstack([path[:1], path[e] + f * (path[e + 1] - path[e])])   # (P + 1, d)
-        self.D = np.diff(self.Q, axis=0)             # (P, d) forward step from each position
+        pts = np.ascontiguousarray(path, dtype=np.float64)
+        # (P + 1, d) configurations and (P, d) forward step from each position
+        self.Q, self.D, _ = path_positions(pts, np.array([0, len(pts)], dtype=np.int64),
+                                           np.asarray(arm.vmax, dtype=np.float64),
+                                           float(settings.dt))
+        self.vertex_pos = np.cumsum(self.n_seg).tolist()   # index in Q of each edge's end
 
     def run(self) -> ArmTrajectory | None:
         s = self.s
@@ -205,10 +212,7 @@ class _PathSweep(_PathWalk):
         """(k_static, k_max) of :meth:`run`: k_max also bounded by the path's length
         (once the obstacles have stopped, only forward moves help)."""
         k_static, k_max = self.time_bounds()
-        if k_static is not None:
-            k_bound = k_static + len(self.Q)
-            k_max = k_bound if k_max is None else min(k_max, k_bound)
-        return k_static, k_max
+        return k_static, length_bound(k_static, k_max, len(self.Q))
 
     def _run_compiled(self, k_static: int | None, k_max: int | None) -> ArmTrajectory | None:
         """The layer loop run by the arm's compiled ``sweep`` (same queries and result)."""

@@ -30,7 +30,7 @@ from typing import Iterator
 import numpy as np
 
 from rfp_twin.planners.roadmap.arm import ArmTrajectory, SearchStats
-from rfp_twin.planners.roadmap.sweep import _PathSweep, path_positions
+from rfp_twin.planners.roadmap.sweep import _PathSweep, length_bound, path_positions
 
 #: Outcomes of ``Arm.sweep_paths`` (those of the compiled layer loop).
 FOUND, FAILED, BUDGET = 0, 1, 2
@@ -77,11 +77,10 @@ class _Batch:
         self.Qs, self.Ds, self.q_ptr = path_positions(
             pts, p_ptr, np.asarray(probe.arm.vmax, dtype=np.float64), float(probe.s.dt))
         k_static, k_max = probe.time_bounds()
-        k_maxs = np.full(len(paths), -1 if k_max is None else k_max, dtype=np.int64)
-        if k_static is not None:                 # as _PathSweep.bounds: + the path's length
-            bound = k_static + np.diff(self.q_ptr)
-            k_maxs = bound if k_max is None else np.minimum(k_maxs, bound)
-        self.k_maxs = np.ascontiguousarray(k_maxs, dtype=np.int64)
+        k_maxs = length_bound(k_static, k_max, np.diff(self.q_ptr))
+        self.k_maxs = np.full(len(paths), -1, dtype=np.int64)     # -1: no bound
+        if k_maxs is not None:
+            self.k_maxs[:] = k_maxs
         self.k_static = -1 if k_static is None else k_static
         self.hits: np.ndarray | None = None
         self.stop = np.zeros(1, dtype=np.uint8)     # set: stop before the next path
