@@ -73,6 +73,7 @@ from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import Plan
 from rfp_twin.planners.postprocess.groups import (TimedGroup, assemble, group_members,
                                                   group_offsets, time_and_simplify)
+from rfp_twin.planners.postprocess.singles import time_singles
 from rfp_twin.planners.postprocess.report import PostprocessReport, build_report, slowest_groups
 from rfp_twin.planners.postprocess.verification import (LOCAL_NARROWING, near_stretch, repair,
                                                         verify_neighbours)
@@ -128,6 +129,9 @@ DEFAULT_INTERACTION_MM = 0.3
 ALIGNMENTS = ("end", "start")
 #: ``progress`` is called every this many groups timed (and after the last).
 PROGRESS_EVERY = 64
+#: Time the one-robot groups in one compiled call (:mod:`rfp_twin.planners.postprocess.singles`;
+#: the same values as one group at a time, which False restores: for tests).
+BATCH_SINGLES = True
 
 
 def _resolve_geometry(geom_or, buffer_mm) -> tuple[ArrayGeometry, float]:
@@ -264,15 +268,25 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
         mrange = path.moving_range()
         members = group_members(labels)
         todo = sorted(dirty)
+        # one-robot groups: one compiled call on two threads, the same values
+        singles = {}
+        if backend == "numba" and BATCH_SINGLES:
+            ones = [int(members[g][0]) for g in todo if g in members and members[g].size == 1]
+            singles = time_singles(path, np.array(ones, dtype=np.int64), vmax, amax, tol,
+                                   grid_steps=grid_steps, sample_s=sample_s,
+                                   max_points=max_points, moving_range=mrange,
+                                   limits=joint_limits) if ones else {}
         for done, g in enumerate(todo, 1):
             if progress is not None and (done % PROGRESS_EVERY == 0 or done == len(todo)):
                 progress(done, len(todo))
             robots = members.get(g)
-            if robots is not None:
-                groups[g] = time_and_simplify(path, robots, vmax, amax, tol,
-                                              grid_steps=grid_steps, backend=backend,
-                                              sample_s=sample_s, max_points=max_points,
-                                              moving_range=mrange, limits=joint_limits)
+            if robots is None:
+                continue
+            timed = singles.get(int(robots[0])) if robots.size == 1 else None
+            groups[g] = timed if timed is not None else time_and_simplify(
+                path, robots, vmax, amax, tol, grid_steps=grid_steps, backend=backend,
+                sample_s=sample_s, max_points=max_points, moving_range=mrange,
+                limits=joint_limits)
         for g in list(groups):
             if g not in members:
                 del groups[g]
