@@ -30,6 +30,7 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import PlanningError, RfpError
+from rfp_twin.models.kernel_cache import preload_cached
 from rfp_twin.models.layout import Layout, default_layout_name, layout_by_name
 from rfp_twin.models.robot import RobotSpec, load_spec
 from rfp_twin.models.trajectory import Trajectory
@@ -51,6 +52,21 @@ ALL_ALGORITHMS = ALGORITHMS + FIELD_ALGORITHMS
 RESOLUTIONS = RESOLVERS + ("none",)
 #: Extra clearance (mm) beyond a field's barrier that random targets keep.
 FIELD_TARGET_SLACK_MM = 0.5
+#: The numba kernels that post-processing and the 2D check call from Python, in order:
+#: loaded from the cache on another thread once the stepwise planners' kernel
+#: (:data:`PLANNER_KERNEL`, which releases the GIL) is loaded and running
+#: (:func:`rfp_twin.models.kernel_cache.preload_cached`): ~0.2 s of a Markov command.
+PLANNER_KERNEL = "rfp_twin.planners.stepwise.kernel:run_stepwise_arrays"
+DELIVER_KERNELS = tuple("rfp_twin." + k for k in (
+    "planners.postprocess.singles:_time_singles", "planners.plan:_build_paths",
+    "planners.simplify:_simplify_plan", "planners.smoothing:_average_kernel",
+    "planners.smoothing:_max_deviation", "planners.smoothing:_moving_range",
+    "planners.timing.grouping:_pair_clearance_below", "validation.checker2d.kernel:_scan_pairs",
+    "validation.checker2d.kernel:_record_pairs", "models.kinematics:forward",
+    "planners.smoothing:_evaluate_many", "planners.timing.grid:_ramp_zone",
+    "planners.timing.grid:_subdivide", "planners.timing.kernel:topp_kernel",
+    "planners.timing.law:law_times", "planners.timing.law:_s_at",
+    "planners.simplify:_simplify_columns", "planners.timing.kinematics:pl_kinematics"))
 
 __all__ = ["ALL_ALGORITHMS", "FIELD_ALGORITHMS", "RESOLUTIONS", "PlanOptions", "Reconfiguration",
            "Outcome", "check_trajectory"]
@@ -260,13 +276,22 @@ class Reconfiguration:
         seconds["targets"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         stage("planning")
-        plan, field = self.plan(tg, rng, on_round=on_round)
-        seconds["plan"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        stage("checking" if self.options.raw else "post-processing")
-        follow = None if on_progress is None else \
-            (lambda done, total: on_progress("post-processing", done, total))
-        traj, post, check = self.deliver(plan, progress=follow)
+        # the next stage's kernels load from numba's cache beside the planner's nogil runs
+        preload = None if self.options.raw else preload_cached(DELIVER_KERNELS,
+                                                               after=PLANNER_KERNEL)
+        try:
+            plan, field = self.plan(tg, rng, on_round=on_round)
+            if preload is not None:
+                preload.release()       # a planner without that kernel: load them now
+            seconds["plan"] = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            stage("checking" if self.options.raw else "post-processing")
+            follow = None if on_progress is None else \
+                (lambda done, total: on_progress("post-processing", done, total))
+            traj, post, check = self.deliver(plan, progress=follow)
+        finally:
+            if preload is not None:
+                preload.join()          # no thread left loading (a caller may fork)
         seconds["deliver"] = time.perf_counter() - t0
         seconds["total"] = time.perf_counter() - clock
         return Outcome(self, seed, tg, plan, field, traj, post, check, seconds)

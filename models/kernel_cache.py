@@ -1,0 +1,110 @@
+"""Load numba kernels from the on-disk cache ahead of their first call, on another thread.
+
+A fresh process loads each ``@njit(cache=True)`` kernel from numba's cache at its first
+call: 3-70 ms a kernel (unpickling, then LLVM linking the object code), ~0.2 s for the
+kernels of post-processing and its 2D check on the 500-robot SDSS-V layout. While a
+long kernel that releases the GIL runs on the main thread (the stepwise planners' run,
+``nogil=True``), another thread can load the kernels of the next stage instead:
+:func:`preload_cached` starts that thread. It only *loads* what the cache holds for the
+current code (the signatures in each kernel's cache index whose source hash and target
+match); it never compiles, so a cold cache behaves as before.
+
+numba's compiler lock serialises loads: a kernel that the main thread calls while the
+thread loads another waits for that load. So the thread can be told to start only once
+the main thread's long kernel is loaded (``after``).
+"""
+from __future__ import annotations
+
+import importlib
+import threading
+import time
+from collections.abc import Iterable
+
+__all__ = ["Preload", "cached_signatures", "kernel_by_name", "preload_cached"]
+
+#: How often the thread looks whether the kernel it waits for is loaded, s.
+_POLL_S = 0.002
+
+
+def cached_signatures(dispatcher) -> list[tuple]:
+    """The argument-type tuples that numba's cache holds for ``dispatcher`` (a
+    ``@njit(cache=True)`` kernel) as compiled from its current source for this machine;
+    [] when it holds none, or the kernel is not cached."""
+    cache = getattr(dispatcher, "_cache", None)
+    cache_file = getattr(cache, "_cache_file", None)
+    if cache_file is None:
+        return []
+    try:
+        index = cache_file._load_index()
+        codegen = dispatcher.targetctx.codegen()
+    except Exception:                   # an unreadable or foreign index: load at first call
+        return []
+    out = []
+    for key in index:
+        sig = key[0]
+        try:
+            if key == cache._index_key(sig, codegen):
+                out.append(sig)
+        except Exception:
+            continue
+    return out
+
+
+def kernel_by_name(name: str):
+    """The kernel ``"package.module:function"`` (the module is imported if needed);
+    LookupError if it is not a numba kernel."""
+    from numba.core.registry import CPUDispatcher
+
+    module_name, _, attr = name.partition(":")
+    value = getattr(importlib.import_module(module_name), attr, None)
+    if not isinstance(value, CPUDispatcher):
+        raise LookupError(f"{name}: not a numba kernel")
+    return value
+
+
+def _load(names: tuple[str, ...], after: str | None, go: threading.Event) -> None:
+    if after is not None:
+        # let the main thread load (and start) that kernel first: numba's compiler lock
+        # would otherwise make it wait for the loads below
+        first = kernel_by_name(after)
+        while not first.overloads and not go.wait(_POLL_S):
+            pass
+    for name in names:
+        dispatcher = kernel_by_name(name)
+        for sig in cached_signatures(dispatcher):
+            if tuple(sig) not in dispatcher.overloads:
+                try:
+                    dispatcher.compile(tuple(sig))
+                except Exception:       # the first call will load or compile it as usual
+                    pass
+
+
+class Preload:
+    """The thread of :func:`preload_cached`."""
+
+    def __init__(self, names: tuple[str, ...], after: str | None) -> None:
+        self._go = threading.Event()
+        self._thread = threading.Thread(target=_load, args=(names, after, self._go),
+                                        name="rfp-kernel-preload", daemon=True)
+        self._thread.start()
+
+    def release(self) -> None:
+        """Stop waiting for the ``after`` kernel: load now (e.g. the stage that was to
+        load it is over without it)."""
+        self._go.set()
+
+    def join(self) -> None:
+        """Wait until every kernel is loaded (before a process forks, say)."""
+        self._go.set()
+        self._thread.join()
+
+
+def preload_cached(names: Iterable[str], *, after: str | None = None) -> Preload:
+    """Start a daemon thread that loads the kernels ``names`` ("package.module:function",
+    in the order they will be called) from numba's cache, each with every signature the
+    cache holds for its current source. Name only the kernels called from Python: a kernel
+    called from another kernel is compiled into its caller, so loading it alone would only
+    cost time. With ``after`` (a kernel's name), the thread first waits until that kernel
+    is loaded (the long nogil call the loads are to hide behind) or
+    :meth:`Preload.release` is called."""
+    return Preload(tuple(names), after)
