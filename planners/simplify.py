@@ -231,18 +231,24 @@ def direction_reversals(ptr: np.ndarray, angles: np.ndarray) -> np.ndarray:
     m = int(ptr[-1]) if n > 0 else 0
     if m < 3:
         return np.zeros(n, dtype=np.int64)
-    sign = np.sign(np.diff(np.asarray(angles, dtype=np.float64)[:m], axis=0))     # (m - 1, 2)
-    move_of = np.repeat(np.arange(n), np.diff(ptr))[:-1]      # robot of each increment
-    valid = np.ones(m - 1, dtype=bool)
-    valid[ptr[1:-1] - 1] = False                               # increments across robots
-    # carry each axis's last non-zero direction over waits, per robot
+    return _reversals(ptr, np.ascontiguousarray(np.asarray(angles, dtype=np.float64)[:m]))
+
+
+@njit(cache=True)
+def _reversals(ptr, angles):
+    """:func:`direction_reversals` in one pass: per robot and axis, the sign of each
+    increment (``np.sign``: NaN stays NaN and differs from every sign), zero increments
+    skipped, and a turn wherever it differs from the last non-zero one."""
+    n = ptr.size - 1
     turns = np.zeros(n, dtype=np.int64)
-    for ax in range(2):
-        sg = np.where(valid, sign[:, ax], 0.0)
-        idx = np.flatnonzero(sg)
-        if idx.size < 2:
-            continue
-        same_robot = move_of[idx[1:]] == move_of[idx[:-1]]
-        flip = same_robot & (sg[idx[1:]] != sg[idx[:-1]])
-        turns += np.bincount(move_of[idx[1:]][flip], minlength=n)
+    for i in range(n):
+        for ax in range(2):
+            last = 0.0
+            for k in range(ptr[i], ptr[i + 1] - 1):
+                sg = np.sign(angles[k + 1, ax] - angles[k, ax])
+                if sg == 0.0:
+                    continue
+                if last != 0.0 and sg != last:
+                    turns[i] += 1
+                last = sg
     return turns

@@ -58,15 +58,17 @@ FIELD_TARGET_SLACK_MM = 0.5
 #: (:func:`rfp_twin.models.kernel_cache.preload_cached`): ~0.2 s of a Markov command.
 PLANNER_KERNEL = "rfp_twin.planners.stepwise.kernel:run_stepwise_arrays"
 DELIVER_KERNELS = tuple("rfp_twin." + k for k in (
-    "planners.postprocess.singles:_time_singles", "planners.plan:_build_paths",
-    "planners.simplify:_simplify_plan", "planners.smoothing:_average_kernel",
-    "planners.smoothing:_max_deviation", "planners.smoothing:_moving_range",
-    "planners.timing.grouping:_pair_clearance_below", "validation.checker2d.kernel:_scan_pairs",
-    "validation.checker2d.kernel:_record_pairs", "models.kinematics:forward",
-    "planners.smoothing:_evaluate_many", "planners.timing.grid:_ramp_zone",
-    "planners.timing.grid:_subdivide", "planners.timing.kernel:topp_kernel",
-    "planners.timing.law:law_times", "planners.timing.law:_s_at",
-    "planners.simplify:_simplify_columns", "planners.timing.kinematics:pl_kinematics"))
+    "planners.plan:_build_paths", "planners.postprocess.limits:_scan",
+    "planners.simplify:_reversals", "planners.simplify:_simplify_plan",
+    "planners.smoothing:_average_kernel", "planners.smoothing:_moving_range",
+    "planners.timing.grouping:_pair_clearance_below",
+    "planners.postprocess.singles:_time_singles", "planners.smoothing:_evaluate_many",
+    "planners.timing.grid:_ramp_zone", "planners.timing.grid:_subdivide",
+    "planners.timing.kernel:topp_kernel", "planners.timing.law:law_times",
+    "planners.timing.law:_s_at", "planners.simplify:_simplify_columns",
+    "planners.timing.kinematics:pl_kinematics", "models.kinematics:forward",
+    "validation.checker2d.kernel:_scan_pairs", "validation.checker2d.kernel:_record_pairs",
+    "planners.smoothing:_max_deviation"))
 
 __all__ = ["ALL_ALGORITHMS", "FIELD_ALGORITHMS", "RESOLUTIONS", "PlanOptions", "Reconfiguration",
            "Outcome", "check_trajectory"]

@@ -62,7 +62,6 @@ Units: mm, degrees, seconds, plan steps.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 from typing import Any, Callable
 
 import numpy as np
@@ -73,6 +72,7 @@ from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import Plan
 from rfp_twin.planners.postprocess.groups import (TimedGroup, assemble, group_members,
                                                   group_offsets, time_and_simplify)
+from rfp_twin.planners.postprocess.limits import within_limits
 from rfp_twin.planners.postprocess.singles import time_singles
 from rfp_twin.planners.postprocess.report import PostprocessReport, build_report, slowest_groups
 from rfp_twin.planners.postprocess.verification import (LOCAL_NARROWING, near_stretch, repair,
@@ -228,7 +228,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
                           f"the {geom.n_robots} robots of the layout, in layout order", "postprocess")
     n = plan.n_robots
     joint_limits = geom.limits.reshape(n, 2, 2)     # each robot's (axis, lo/hi), model deg
-    plan = _within_limits(plan, joint_limits)
+    plan = within_limits(plan, joint_limits)
     verify_buffer = buffer_mm - budget_mm
     stages = {"smooth": 0.0, "group": 0.0, "time": 0.0, "simplify": 0.0, "verify": 0.0}
 
@@ -394,35 +394,6 @@ def _smooth(plan: Plan, method: str, window: np.ndarray, pad: float, pre: np.nda
         return smooth_plan_local(src, window, regions, pad, base), int(src.path_step.size)
     return (smooth_plan(src, method=method, window_steps=window, pad_steps=pad),
             int(src.path_step.size))
-
-
-LIMIT_ROUNDING_DEG = 1e-9
-"""How far a plan may sit outside the joint limits and still count as inside (rounding), deg."""
-
-
-def _within_limits(plan: Plan, limits: np.ndarray) -> Plan:
-    """The plan with its breakpoints clipped to each robot's joint limits ``limits``
-    (n, 2, 2) deg (robot, axis, lo/hi).
-
-    Only rounding (``LIMIT_ROUNDING_DEG``) is clipped, as post-processing clips its samples
-    to remove the rounding of the smoothing sums; a plan that really leaves the limits
-    (e.g. a field planner without alpha stops) is refused, naming the robot.
-    """
-    owner = np.repeat(np.arange(plan.n_robots), np.diff(plan.path_ptr))
-    lim = limits[owner]                                   # (breakpoints, 2, 2)
-    for ax, name in enumerate(("alpha", "beta")):
-        a = plan.path_angles[:, ax]
-        lo, hi = lim[:, ax, 0], lim[:, ax, 1]
-        bad = np.flatnonzero((a < lo - LIMIT_ROUNDING_DEG) | (a > hi + LIMIT_ROUNDING_DEG))
-        if bad.size:
-            k = int(bad[0])
-            raise field_error(SpecError, f"plan {name}", f"{a[k]:.4f} deg",
-                              f"[{lo[k]:g}, {hi[k]:g}] deg (the robot's {name} limits)",
-                              f"postprocess, robot {int(plan.robot_ids[owner[k]])}")
-    clipped = np.clip(plan.path_angles, lim[:, :, 0], lim[:, :, 1])
-    if np.array_equal(clipped, plan.path_angles):
-        return plan
-    return replace(plan, path_angles=clipped)
 
 
 def _check_args(budget_mm, buffer_mm, max_points, tolerance_deg, smoothing, window_steps,
