@@ -68,6 +68,7 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import PlanningError, SpecError, field_error
+from rfp_twin.models.second_thread import second_thread
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import Plan
 from rfp_twin.planners.postprocess.groups import (TimedGroup, assemble, group_members,
@@ -232,6 +233,9 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     verify_buffer = buffer_mm - budget_mm
     stages = {"smooth": 0.0, "group": 0.0, "time": 0.0, "simplify": 0.0, "verify": 0.0}
 
+    # 2. (beside 1) the interaction pairs need only the plan: the second thread finds them
+    grouping = second_thread().submit(interaction_pairs, plan, geom, interaction_mm)
+
     # 1. smoothing
     t0 = time.perf_counter()
     window = np.full(n, float(window_steps))
@@ -244,9 +248,9 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     path, n_smoothed = _smooth(plan, smoothing, window, pad, pre, regions, cache)
     stages["smooth"] += time.perf_counter() - t0
 
-    # 2. grouping
+    # 2. grouping ("group": what is left of it once the plan is smoothed)
     t0 = time.perf_counter()
-    pairs, clear = interaction_pairs(plan, geom, interaction_mm)
+    pairs, clear = grouping.result()
     labels = interaction_groups(n, pairs[clear < interaction_mm])
     stages["group"] += time.perf_counter() - t0
 

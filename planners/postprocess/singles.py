@@ -24,11 +24,11 @@ Units: plan steps, degrees, seconds.
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import njit
 
+from rfp_twin.models.second_thread import second_thread
 from rfp_twin.planners.postprocess.groups import TimedGroup
 from rfp_twin.planners.simplify import _simplify_columns
 from rfp_twin.planners.smoothing import SmoothPath, eval_robot
@@ -44,9 +44,6 @@ __all__ = ["time_singles"]
 _SPLIT_ROBOTS = 16
 #: Status of a robot in the kernel's output.
 _DONE, _LEFT = 0, 1
-
-_POOL: ThreadPoolExecutor | None = None
-
 
 def _grown(a, need):
     """``a`` or a copy at least twice as long, its first ``len(a)`` rows kept."""
@@ -238,23 +235,6 @@ def _time_singles(ptr, knots, coef, robots, s_range, vmax, amax, vlim, alim, sd_
             smp_keep, tol_used, scale)
 
 
-def _pool() -> ThreadPoolExecutor:
-    global _POOL
-    if _POOL is None:
-        _POOL = ThreadPoolExecutor(1, thread_name_prefix="rfp-singles")
-    return _POOL
-
-
-def _forget_pool() -> None:
-    """In a forked child the parent's worker thread does not exist: make a new one."""
-    global _POOL
-    _POOL = None
-
-
-if hasattr(__import__("os"), "register_at_fork"):
-    __import__("os").register_at_fork(after_in_child=_forget_pool)
-
-
 def _unpack(out, robots: np.ndarray, found: dict) -> None:
     (status, law_ptr, law_s, law_sd, law_t, u_ptr, law_u, smp_ptr, smp_t, smp_y, smp_keep,
      tol_used, scale) = out
@@ -298,7 +278,7 @@ def time_singles(path: SmoothPath, robots: np.ndarray, vmax, amax, tol_robot: np
         return found
     half = robots.size // 2
     first, second = robots[:half].copy(), robots[half:].copy()
-    other = _pool().submit(_time_singles, *args, second, *rest)
+    other = second_thread().submit(_time_singles, *args, second, *rest)
     _unpack(_time_singles(*args, first, *rest), first, found)
     _unpack(other.result(), second, found)
     return found

@@ -23,13 +23,11 @@ Units: joint angles as the arm's; time in the arm's units (planner steps here).
 from __future__ import annotations
 
 import itertools
-import os
-import threading
-from concurrent.futures import ThreadPoolExecutor
 from typing import Iterator
 
 import numpy as np
 
+from rfp_twin.models.second_thread import second_thread
 from rfp_twin.planners.roadmap.arm import ArmTrajectory, SearchStats
 from rfp_twin.planners.roadmap.sweep import _PathSweep, length_bound, path_positions
 
@@ -40,29 +38,6 @@ FOUND, FAILED, BUDGET = 0, 1, 2
 #: the same size: the first path (the median success is the first or second path) and
 #: its successor, then growing batches.
 BATCH_SIZES = (1, 4, 8, 16, 32)
-
-_WORKER: ThreadPoolExecutor | None = None
-_WORKER_LOCK = threading.Lock()
-
-
-def _worker() -> ThreadPoolExecutor:
-    """The process's worker thread for the batches swept ahead (made on first use)."""
-    global _WORKER
-    with _WORKER_LOCK:
-        if _WORKER is None:
-            _WORKER = ThreadPoolExecutor(1, thread_name_prefix="sweep-batch")
-        return _WORKER
-
-
-def _forget_worker() -> None:
-    """In a forked child the parent's worker thread does not exist: make a new one."""
-    global _WORKER, _WORKER_LOCK
-    _WORKER = None
-    _WORKER_LOCK = threading.Lock()
-
-
-os.register_at_fork(after_in_child=_forget_worker)
-
 
 class _Batch:
     """Roadmap paths swept by one ``sweep_paths`` call (positions built by
@@ -118,7 +93,7 @@ def search_batched(probe: _PathSweep, paths: Iterator[np.ndarray],
         if ahead_paths:
             # the next batch, optimistically with the budget left before this one
             next_batch = _Batch(ahead_paths, probe)
-            ahead = _worker().submit(next_batch.sweep, left)
+            ahead = second_thread().submit(next_batch.sweep, left)
         result, stop = _consume(here.sweep(left), stats)
         if stop:
             if ahead is not None:

@@ -68,7 +68,7 @@ def _clearance_at(ptr, steps, angles, base_xy, i, j, s, alpha_len, seg_start, se
     return segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - thr
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def _pair_clearance_below(ptr, steps, angles, n_steps, base_xy, pairs, alpha_len, seg_start,
                           seg_end, buffer, mu, margin):
     """Per pair: the smallest clearance found before it drops below ``margin`` (mm).
