@@ -46,7 +46,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from rfp_twin.models.errors import SpecError, field_error
 from rfp_twin.planners.plan import Plan
@@ -209,12 +209,13 @@ def plan_deviation(plan: Plan, path: SmoothPath, stride: int = 1) -> np.ndarray:
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def _max_deviation(pptr, pstep, pang, ptr, knots, coef, pad, steps, out):
     """``out[i, ax]`` = max over ``steps`` of |path(i, step + pad) - plan(i, step)|; the
-    plan is piecewise linear between its breakpoints and held outside them."""
-    buf = np.empty(2)
-    for i in range(pptr.size - 1):
+    plan is piecewise linear between its breakpoints and held outside them (robots in
+    parallel, each on its own)."""
+    for i in prange(pptr.size - 1):
+        buf = np.empty(2)
         b0 = pptr[i]
         b1 = pptr[i + 1]
         cur = b0
