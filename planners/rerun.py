@@ -301,15 +301,18 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
 
 
 class _Ahead:
-    """``fn(*args, stop=event)`` started at once in a thread of its own; :meth:`result`
-    waits for it, :meth:`cancel` asks it to stop after the attempt it is in."""
+    """``fn(*args, stop=event, idle=event)`` started at once in a thread of its own;
+    :meth:`result` sets ``idle`` (the caller now only waits) and waits for it,
+    :meth:`cancel` asks it to stop after the attempt it is in."""
 
     def __init__(self, fn, *args):
         self._stop = threading.Event()
+        self._idle = threading.Event()
         self._pool = ThreadPoolExecutor(1, thread_name_prefix="rerun-ahead")
-        self._future = self._pool.submit(fn, *args, stop=self._stop)
+        self._future = self._pool.submit(fn, *args, stop=self._stop, idle=self._idle)
 
     def result(self):
+        self._idle.set()
         try:
             return self._future.result()
         finally:
@@ -321,12 +324,18 @@ class _Ahead:
 
 
 def _ladder(own, allowed, movable, pairs, paths, override, run, goal, fold, max_steps, seed,
-            attempts, stop: threading.Event | None = None):
+            attempts, stop: threading.Event | None = None, idle: threading.Event | None = None):
     """The attempts on one group (robots ``own`` (n,) bool; patches within ``allowed``,
     or whole-array runs when it is None), until ``stop`` is set if given. Returns (best
     (robots, interior mask, StepRun, steps until its interior arrived) or None, attempts
     made, attempts blocked by the ring, the incomplete attempt that left fewest robots
-    stuck (fewer than the group) or None)."""
+    stuck (fewer than the group) or None).
+
+    Whole-array attempts run two at a time once ``idle`` is set (always without it): while
+    attempt k runs, attempt k + 1 starts as if k left no new robot stuck (its region is
+    then the same; so in ~70 % of the attempts), and is run again when k did; the same
+    attempts and results as one at a time. ``idle`` says the caller's thread only waits
+    (its patches are done): before that the patches use the other core."""
     seen = own.copy()                # robots stuck in the first run or any attempt
     everyone = np.arange(own.size)
     fewest = int(own.sum())
@@ -334,9 +343,9 @@ def _ladder(own, allowed, movable, pairs, paths, override, run, goal, fold, max_
     margin = MARGIN_HOPS
     best = closest = None
     first_complete = -1
-    for k in range(attempts):
-        if stop is not None and stop.is_set():
-            break
+
+    def call(k: int):
+        """(robots, interior mask, region, the run's arguments) of attempt k."""
         hops, g, p = LADDER[k % len(LADDER)]
         if allowed is None:          # the whole array
             region = grow_region(pairs, seen, hops) & movable
@@ -346,37 +355,60 @@ def _ladder(own, allowed, movable, pairs, paths, override, run, goal, fold, max_
             interior = grow_region(pairs, region, margin) & allowed
             robots = np.flatnonzero(grow_region(pairs, interior, 1))
             inner = interior[robots]
-        attempt = run(robots, ring_script(paths, robots, ~inner, override),
-                      movable[robots] & inner, np.where(region[robots], g, 1.0),
-                      np.where(region[robots], p, 0.0), region[robots].copy(),
-                      int(seed) + 7 * k + 1, max_steps)
-        made += 1
-        if attempt.replay_blocked:
-            blocked += 1
-            margin = min(margin + 1, MAX_MARGIN_HOPS)   # more room before the ring
-            left = None
-        else:
-            at_goal = np.all(np.abs(attempt.final - goal[robots]) < ANGLE_EPS, axis=1)
-            left = movable[robots] & inner & ~at_goal
-        if left is not None and not left.any():
-            # its length: the interior's last arrival (the ring may replay on after it)
-            arrived = arrival_steps(attempt, ~inner)
-            if best is None or arrived < best[3]:
-                best = (robots, inner, attempt, arrived)
-            if first_complete < 0:
-                first_complete = k
-            if arrived <= fold:
-                break                # complete, and the fold is no longer than the plan's
-        elif left is not None and int(left.sum()) < fewest:
-            fewest = int(left.sum())
-            closest = attempt
-            stale = 0
-        else:
-            stale += 1
-        if left is not None:
-            seen[robots[left]] = True
-        if 0 <= first_complete <= k - EXTRA_ATTEMPTS:
-            break
-        if first_complete < 0 and stale >= PATIENCE:
-            break
+        return robots, inner, region, (
+            robots, ring_script(paths, robots, ~inner, override), movable[robots] & inner,
+            np.where(region[robots], g, 1.0), np.where(region[robots], p, 0.0),
+            region[robots].copy(), int(seed) + 7 * k + 1, max_steps)
+
+    pool = ThreadPoolExecutor(2, thread_name_prefix="rerun-attempt") if allowed is None else None
+    ahead: dict = {}                 # k -> (region, future) started before attempt k - 1 ended
+    try:
+        for k in range(attempts):
+            if stop is not None and stop.is_set():
+                break
+            robots, inner, region, args = call(k)
+            if pool is None:
+                attempt = run(*args)
+            else:
+                started = ahead.pop(k, None)
+                same = started is not None and np.array_equal(started[0], region)
+                running = started[1] if same else pool.submit(run, *args)
+                if k + 1 < attempts and (idle is None or idle.is_set()):
+                    _, _, next_region, next_args = call(k + 1)
+                    ahead[k + 1] = (next_region, pool.submit(run, *next_args))
+                attempt = running.result()
+            made += 1
+            if attempt.replay_blocked:
+                blocked += 1
+                margin = min(margin + 1, MAX_MARGIN_HOPS)   # more room before the ring
+                left = None
+            else:
+                at_goal = np.all(np.abs(attempt.final - goal[robots]) < ANGLE_EPS, axis=1)
+                left = movable[robots] & inner & ~at_goal
+            if left is not None and not left.any():
+                # its length: the interior's last arrival (the ring may replay on after it)
+                arrived = arrival_steps(attempt, ~inner)
+                if best is None or arrived < best[3]:
+                    best = (robots, inner, attempt, arrived)
+                if first_complete < 0:
+                    first_complete = k
+                if arrived <= fold:
+                    break            # complete, and the fold is no longer than the plan's
+            elif left is not None and int(left.sum()) < fewest:
+                fewest = int(left.sum())
+                closest = attempt
+                stale = 0
+            else:
+                stale += 1
+            if left is not None:
+                seen[robots[left]] = True
+            if 0 <= first_complete <= k - EXTRA_ATTEMPTS:
+                break
+            if first_complete < 0 and stale >= PATIENCE:
+                break
+    finally:
+        if pool is not None:
+            for _, future in ahead.values():
+                future.cancel()      # one already running ends on its own
+            pool.shutdown(wait=False)
     return best, made, blocked, closest
