@@ -309,3 +309,35 @@ def test_the_cap_counts_from_the_last_arrival_not_from_the_stuck_robots_moves():
                   np.zeros((4, 2)), 0.0)
     assert arrival_steps(run, np.array([False, False, True])) == 60
     assert arrival_steps(run, np.array([True, True, True])) == 95      # nobody arrived
+
+
+def test_whole_array_attempts_overlap_only_once_the_caller_waits():
+    """Before ``idle`` is set the patches use the other core: whole-array attempts run one
+    at a time; after it, attempt k + 1 runs beside attempt k (same results either way)."""
+    from rfp_twin.planners.rerun import _ladder
+
+    live = [0]
+    peak = []
+    lock = threading.Lock()
+
+    def run(robots, script, movable, greed, phobia, greedy_first, seed, max_steps):
+        with lock:
+            live[0] += 1
+            peak.append(live[0])
+        threading.Event().wait(0.02)
+        with lock:
+            live[0] -= 1
+        return _fake(50, [3], robots)                   # robot 3 stays stuck: no completion
+
+    first = _fake(50, [3])
+    own = np.zeros(N_CHAIN, bool)
+    own[3] = True
+    for idle_set, most in ((False, 1), (True, 2)):
+        peak.clear()
+        idle = threading.Event()
+        if idle_set:
+            idle.set()
+        best, made, blocked, closest = _ladder(own, None, MOVABLE, PAIRS, _paths(first), {}, run,
+                                               GOAL, 50, 55, 0, len(LADDER), idle=idle)
+        assert best is None and closest is None and made == PATIENCE
+        assert max(peak) == most
