@@ -33,7 +33,7 @@ from rfp_twin.planners.postprocess.groups import TimedGroup
 from rfp_twin.planners.simplify import _simplify_columns
 from rfp_twin.planners.smoothing import SmoothPath, eval_robot
 from rfp_twin.planners.timing.grid import STRAIGHT_STEPS, _ramp_zone, _subdivide
-from rfp_twin.planners.timing.group import _CRAWL_SD
+from rfp_twin.planners.timing.group import _CRAWL_SD, LIMIT_MARGIN
 from rfp_twin.planners.timing.kernel import SD_CAP, topp_kernel
 from rfp_twin.planners.timing.kinematics import pl_kinematics
 from rfp_twin.planners.timing.law import TimeLaw, _s_at, law_times
@@ -248,7 +248,7 @@ def _unpack(out, robots: np.ndarray, found: dict) -> None:
 
 def time_singles(path: SmoothPath, robots: np.ndarray, vmax, amax, tol_robot: np.ndarray, *,
                  grid_steps: float, sample_s: float, max_points: int, moving_range: np.ndarray,
-                 limits: np.ndarray, limit_margin: float = 0.999,
+                 limits: np.ndarray, limit_margin: float = LIMIT_MARGIN,
                  sd_cap: float = SD_CAP) -> dict[int, TimedGroup]:
     """The :class:`TimedGroup` of each robot of ``robots`` (m,) as a one-robot group, as
     :func:`rfp_twin.planners.postprocess.groups.time_and_simplify` gives it with the

@@ -25,7 +25,7 @@ from rfp_twin.planners.timing.grid import group_grid
 from rfp_twin.planners.timing.kernel import SD_CAP
 from rfp_twin.planners.timing.law import TimeLaw
 
-__all__ = ["TOPPRA_MAX_ROBOTS", "time_group"]
+__all__ = ["LIMIT_MARGIN", "TOPPRA_MAX_ROBOTS", "time_group"]
 
 #: With the toppra backend, groups of more robots than this are timed by the kernel
 #: (solver "numba-large"): the library's Python loops grow with the joints, and a crowded
@@ -33,10 +33,12 @@ __all__ = ["TOPPRA_MAX_ROBOTS", "time_group"]
 #: with the library, 1.5 s with the kernel, the same law. SDSS-V groups at 2-2.5 mm have
 #: at most ~7 robots.
 TOPPRA_MAX_ROBOTS = 32
+#: The speed and acceleration limits are applied times this factor (rounding head-room).
+LIMIT_MARGIN = 0.999
 
 
 def time_group(path: SmoothPath, robots, max_speed, max_accel, *, grid_steps: float = 4.0,
-               backend: str = DEFAULT_BACKEND, limit_margin: float = 0.999,
+               backend: str = DEFAULT_BACKEND, limit_margin: float = LIMIT_MARGIN,
                moving_range: np.ndarray | None = None, span=(None, None),
                sd_cap: float = SD_CAP, straight_steps: float | None = None,
                fallback: bool = True, toppra_max_robots: int | None = TOPPRA_MAX_ROBOTS) -> TimeLaw:
