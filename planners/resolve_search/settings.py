@@ -37,6 +37,13 @@ class SearchResolveSettings:
         for a robot they block (re-planned below it, free to leave their stepwise paths)
     max_departures : int, times at which a deadlocked robot may leave the stepwise
         motion it made before it got stuck (latest first)
+    depart_at_start : bool, one of them is step 0 (leave that motion at once). Off by
+        default: each group is also searched from step 0 without lead-ins (the other
+        pass of :func:`rfp_twin.planners.resolve_search.resolve.search_group`). On the
+        500-robot layout at 3.5 mm (seeds 1-12) none of 160 single-robot plans that found
+        a trajectory found it there (140, 18 and 2 at the first three departures), while
+        the failing plans spent 7.5 of their 28.6 s on it; the 547 grid at 2.5 mm (seeds
+        0-19): 8 of 8 at the first departure
     search : "sweep" (earliest arrival, one time layer at a time) | "dfs" (Sabater's
         depth-first search); see :class:`rfp_twin.planners.roadmap.RoadmapSettings`
     step0_first : search each group from step 0 first, then with the lead-ins (False:
@@ -55,6 +62,7 @@ class SearchResolveSettings:
     resume_edges: bool = True
     max_recruits: int = 16
     max_departures: int = 4
+    depart_at_start: bool = False
     search: str = "sweep"
     step0_first: bool = False
 
@@ -74,4 +82,5 @@ class SearchResolveSettings:
                                n_random_edges=self.n_random_edges, corner_vertices=True,
                                max_paths=self.max_paths, max_nodes=self.max_nodes,
                                resume_edges=self.resume_edges, edge_check_step=step_deg,
-                               max_departures=self.max_departures, search=self.search)
+                               max_departures=self.max_departures,
+                               depart_at_start=self.depart_at_start, search=self.search)

@@ -120,6 +120,9 @@ class RoadmapSettings:
         checked against ``forbidden``; None = the motion of one ``dt_col`` at ``vmax``
     max_departures : int, times tried to leave an arm's ``lead_in`` (latest first);
         ``max_paths`` applies to each
+    depart_at_start : bool, with a ``lead_in``, one of those times is ``t_start`` (leave
+        it at once); False drops that one (a caller that also plans the arm without its
+        lead-in has tried it)
     search : "dfs" (Sabater's depth-first search, Algorithms 3-6) | "sweep" (the same
         state-time graph explored one time layer at a time: earliest arrival, much
         faster on hard searches; unlimited ``n_stop`` only)
@@ -138,6 +141,7 @@ class RoadmapSettings:
     resume_edges: bool = False
     edge_check_step: float | None = None
     max_departures: int = 4
+    depart_at_start: bool = True
     search: str = "dfs"
 
     def __post_init__(self) -> None:

@@ -160,7 +160,9 @@ def _departures(arm: Arm, settings: RoadmapSettings, stats: SearchStats) -> list
 
     Candidates lie on the dt grid from ``t_start`` to the end of the lead-in, up to the
     first ``dt_col`` check of the lead-in that collides; at most ``max_departures`` of
-    them, evenly spread, always including the first and the last.
+    them, evenly spread, always including the first and the last; without
+    ``settings.depart_at_start`` the first (``t_start``: leaving the lead-in at once) is
+    then dropped, unless it is the only one.
     """
     if arm.lead_in is None:
         return [arm.t_start]
@@ -184,6 +186,8 @@ def _departures(arm: Arm, settings: RoadmapSettings, stats: SearchStats) -> list
     if len(grid) > m:
         pick = np.unique(np.round(np.linspace(0, len(grid) - 1, m)).astype(int))
         grid = grid[pick]
+    if not settings.depart_at_start and len(grid) > 1:
+        grid = grid[1:]                   # t_start, always the first pick
     return [float(t) for t in grid[::-1]]
 
 

@@ -94,3 +94,20 @@ def test_early_parked_arm_stays_clear_until_the_arm_before_it_has_passed():
     t = np.arange(0.0, max(a.t_end, b.t_end, c.t_end) + 1.0, 0.01)
     assert min_distance([a, b, c], t) >= R_TOY - 0.1   # checked every dt_col (speed 1)
     assert len(c.path) > 2                      # C goes round B parked on its line
+
+
+def test_leaving_the_lead_in_at_once_can_be_left_out():
+    """``depart_at_start=False`` drops only the t_start departure; the others stay."""
+    from rfp_twin.planners.roadmap.planner import _departures
+    from rfp_twin.planners.roadmap.arm import SearchStats
+
+    lead = (np.array([0.0, 30.0]), np.array([[0.0], [3.0]]))
+    arm = line_arm(lambda q, t: np.zeros(len(q), bool), t_static=5.0, lead_in=lead)
+    every = _departures(arm, direct_only(n_stop=None), SearchStats())
+    later = _departures(arm, direct_only(n_stop=None, depart_at_start=False), SearchStats())
+    assert len(every) == 4 and every[-1] == arm.t_start and every[0] == 30.0
+    assert later == every[:-1]
+    # a lead-in blocked after its first step leaves t_start as the only departure: kept
+    blocked = line_arm(lambda q, t: np.asarray(t) >= 1.0, t_static=5.0, lead_in=lead)
+    assert _departures(blocked, direct_only(n_stop=None, depart_at_start=False),
+                       SearchStats()) == [arm.t_start]
