@@ -71,6 +71,8 @@ def _load(names: tuple[str, ...], after: str | None, go: threading.Event) -> Non
             pass
     for name in names:
         dispatcher = kernel_by_name(name)
+        if dispatcher.overloads:
+            continue                    # loaded already (a process's later runs)
         for sig in cached_signatures(dispatcher):
             if tuple(sig) not in dispatcher.overloads:
                 try:
