@@ -7,7 +7,8 @@ long kernel that releases the GIL runs on the main thread (the stepwise planners
 ``nogil=True``), another thread can load the kernels of the next stage instead:
 :func:`preload_cached` starts that thread. It only *loads* what the cache holds for the
 current code (the signatures in each kernel's cache index whose source hash and target
-match); it never compiles, so a cold cache behaves as before.
+match), so it loads and does not compile: with a cold cache the kernels compile at their
+first call, as before.
 
 numba's compiler lock serialises loads: a kernel that the main thread calls while the
 thread loads another waits for that load. So the thread can be told to start only once

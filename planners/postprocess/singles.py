@@ -2,7 +2,7 @@
 
 Most groups of a post-processed plan are one robot (492 of 500 on a Markov fold of the
 SDSS-V layout at 2.0 mm). :func:`rfp_twin.planners.postprocess.groups.time_and_simplify`
-does each in ~15 kernel calls with numpy between them, ~0.7 ms a robot, a third of it
+does each in ~15 kernel calls with numpy between them, ~0.7 ms a robot, a quarter of it
 Python. :func:`time_singles` does the same arithmetic for many robots in one kernel
 (:func:`_time_singles`) that releases the GIL, and splits the robots between two threads:
 the same :class:`~rfp_twin.planners.postprocess.groups.TimedGroup` values bit for bit
@@ -112,8 +112,8 @@ def _time_singles(ptr, knots, coef, robots, s_range, vmax, amax, vlim, alim, sd_
     (spec times the margin); ``vlim``, ``alim`` (2,) the spec's, for the slow-down;
     ``tol`` (n,) RDP tolerance per robot; ``limits`` (n, 2, 2) joint limits.
     Returns the status (m,) and CSR arrays: law (ptr (m+1,), s, sd, t; ptr (m+1,), sdd),
-    samples (ptr (m+1,), t, Y (., 2), keep (., 2)), the
-    tolerances used (m, 2) and the slow-down scale (m,)."""
+    samples (ptr (m+1,), t, Y (., 2), keep (., 2)), the tolerances used (m, 2) and the
+    slow-down scale (m,)."""
     m = robots.size
     status = np.full(m, _DONE, dtype=np.int64)
     law_ptr = np.zeros(m + 1, dtype=np.int64)
