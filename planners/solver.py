@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 from dataclasses import replace as _with
 
 import numpy as np
@@ -55,7 +56,8 @@ from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan,
 from rfp_twin.planners.continuation import continue_groups
 from rfp_twin.planners.offline import apply_offline
 from rfp_twin.planners.rerun import clusters, rerun_deadlocks, stuck_mask
-from rfp_twin.planners.resolve_search import PathSet, SearchResolveSettings, resolve_groups
+if TYPE_CHECKING:
+    from rfp_twin.planners.resolve_search import SearchResolveSettings
 from rfp_twin.planners.stepwise import StepRun, array_max_displacement, run_array
 from rfp_twin.planners.targets import check_targets, random_targets
 
@@ -143,6 +145,7 @@ def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: 
 def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
                  settings: PlannerSettings, md: float, seed: int) -> StepRun:
     """A roadmap pass (:func:`rfp_twin.planners.roadmap_array.roadmap_pass`) as a StepRun."""
+    from rfp_twin.planners.resolve_search import SearchResolveSettings
     from rfp_twin.planners.roadmap_array import roadmap_pass
 
     res = roadmap_pass(geom, start, dest, movable, md, settings.step_deg,
@@ -261,7 +264,6 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     replaced = np.zeros(n, dtype=bool)
     md = array_max_displacement(geom, settings.step_deg)
     use_search = resolve and settings.resolve == "search"
-    search_settings = settings.search or SearchResolveSettings()
     tau_sr = 0.0
     tau_pg = 0.0
     pg_retries = 0
@@ -323,6 +325,12 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             # generator (from this round's seed) leaves ``rng`` as "replace" uses it
             ptr, steps, angles = build_paths(n, run.ev_robot, run.ev_step, run.ev_angles, start,
                                              run.final, run.n_steps)
+            # imported here: the search and its roadmaps (~40 ms of imports) only when a
+            # group is left
+            from rfp_twin.planners.resolve_search import (PathSet, SearchResolveSettings,
+                                                          resolve_groups)
+
+            search_settings = settings.search or SearchResolveSettings()
             # after a partial whole-array re-run the stuck robots wandered until the cap:
             # keeping that motion as their lead-in would delay the fold, so search from step 0
             outcome = resolve_groups(geom, PathSet.from_csr(ptr, steps, angles), run.n_steps,
