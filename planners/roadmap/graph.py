@@ -66,30 +66,48 @@ class _EdgeFeasibility:
         """Check every edge of ``paths`` ((k, d) arrays) not yet in the memo, in one
         ``Arm.edges_forbidden`` call (nothing without one): the same answers as
         :meth:`ok` one edge at a time."""
-        if self.arm.edges_forbidden is None:
-            return
-        keys, q0s, q1s = [], [], []
-        for path in paths:
-            for k in range(len(path) - 1):
-                key = self._key(path[k], path[k + 1])
-                if key not in self.memo:
-                    self.memo[key] = None            # placeholder: one check per edge
-                    keys.append(key)
-                    q0s.append(path[k])
-                    q1s.append(path[k + 1])
-        if not keys:
-            return
-        hit, counts = self.arm.edges_forbidden(np.array(q0s), np.array(q1s), self.step)
-        self.checks += int(counts.sum())
-        for key, h in zip(keys, hit.tolist()):
-            self.memo[key] = not h
+        self._fill(paths, self._path_keys(paths))
+
+    def clear_paths(self, paths: list) -> list:
+        """``paths`` whose every edge avoids the forbidden zone, in order (the edges not
+        yet known checked together, as :meth:`prefetch`)."""
+        keys = self._path_keys(paths)
+        self._fill(paths, keys)
+        return [p for p, ks in zip(paths, keys)
+                if all(self._known(key, p[k], p[k + 1]) for k, key in enumerate(ks))]
+
+    def ok(self, q0: np.ndarray, q1: np.ndarray) -> bool:
+        return self._known(self._key(q0, q1), q0, q1)
 
     def _key(self, q0: np.ndarray, q1: np.ndarray) -> bytes:
         """The memo key of edge q0 -> q1 (with the check step: memos are shared)."""
         return np.concatenate([q0, q1, self.step]).tobytes()
 
-    def ok(self, q0: np.ndarray, q1: np.ndarray) -> bool:
-        key = self._key(q0, q1)
+    def _path_keys(self, paths: list) -> list[list[bytes]]:
+        return [[self._key(p[k], p[k + 1]) for k in range(len(p) - 1)] for p in paths]
+
+    def _fill(self, paths: list, keys: list[list[bytes]]) -> None:
+        """The memo entries of the edges of ``paths`` (``keys`` theirs) not yet in it, by
+        one ``Arm.edges_forbidden`` call (nothing without one)."""
+        if self.arm.edges_forbidden is None:
+            return
+        new, q0s, q1s = [], [], []
+        for path, ks in zip(paths, keys):
+            for k, key in enumerate(ks):
+                if key not in self.memo:
+                    self.memo[key] = None            # placeholder: one check per edge
+                    new.append(key)
+                    q0s.append(path[k])
+                    q1s.append(path[k + 1])
+        if not new:
+            return
+        hit, counts = self.arm.edges_forbidden(np.array(q0s), np.array(q1s), self.step)
+        self.checks += int(counts.sum())
+        for key, h in zip(new, hit.tolist()):
+            self.memo[key] = not h
+
+    def _known(self, key: bytes, q0: np.ndarray, q1: np.ndarray) -> bool:
+        """The memo's answer for edge q0 -> q1 (``key``), checked point by point if absent."""
         hit = self.memo.get(key)
         if hit is None:
             pts = _edge_samples(q0, q1, self.step)

@@ -135,19 +135,13 @@ def _candidates(roadmap: Roadmap, settings: RoadmapSettings,
 
     def clear(paths: Iterator[np.ndarray]) -> Iterator[np.ndarray]:
         while block := list(itertools.islice(paths, EDGE_BLOCK)):
-            yield from _feasible(block, feasible)
+            yield from feasible.clear_paths(block)
 
     return itertools.islice(clear(cleaned()), settings.max_paths)
 
 
 #: Roadmap paths whose edges :func:`_candidates` checks in one call.
 EDGE_BLOCK = 64
-
-
-def _feasible(paths: list, feasible: _EdgeFeasibility) -> list:
-    """``paths`` whose every edge avoids the forbidden zone, in order."""
-    feasible.prefetch(paths)
-    return [p for p in paths if all(feasible.ok(p[k], p[k + 1]) for k in range(len(p) - 1))]
 
 
 def _lead_in_at(arm: Arm, t: float) -> np.ndarray:
