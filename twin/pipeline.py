@@ -63,7 +63,7 @@ DELIVER_KERNELS = tuple("rfp_twin." + k for k in (
     "planners.smoothing:_average_kernel", "planners.smoothing:_moving_range",
     "planners.timing.grouping:_pair_clearance_below",
     "planners.postprocess.singles:_time_singles", "planners.smoothing:_evaluate_many",
-    "planners.timing.grid:_ramp_zone", "planners.timing.grid:_subdivide",
+    "planners.timing.grid:knot_grid",
     "planners.timing.kernel:topp_kernel", "planners.timing.law:law_times",
     "planners.timing.law:_s_at", "planners.simplify:_simplify_columns",
     "planners.timing.kinematics:pl_kinematics", "models.kinematics:forward",

@@ -9,8 +9,8 @@ the same :class:`~rfp_twin.planners.postprocess.groups.TimedGroup` values bit fo
 (the same operations in the same order; a test compares every array).
 
 What the kernel does per robot, as the per-group path does with the ``numba`` backend:
-the grid (:func:`rfp_twin.planners.timing.grid.group_grid`: the knots over the moving
-span, curved intervals cut at ``grid_steps``, straight ones by their ramp zones), the
+the grid (:func:`rfp_twin.planners.timing.grid.knot_grid`, as ``group_grid``: the knots
+over the moving span, curved intervals cut at ``grid_steps``, straight ones by their ramp zones), the
 TOPP-RA law (:func:`rfp_twin.planners.timing.kernel.topp_kernel`, limits times
 ``limit_margin``), samples every ``sample_s`` seconds clipped to the joint limits, RDP on
 both axes (:func:`rfp_twin.planners.simplify.simplify_columns`) and the uniform slow-down
@@ -32,7 +32,7 @@ from rfp_twin.models.second_thread import second_thread
 from rfp_twin.planners.postprocess.groups import TimedGroup
 from rfp_twin.planners.simplify import _simplify_columns
 from rfp_twin.planners.smoothing import SmoothPath, eval_robot
-from rfp_twin.planners.timing.grid import STRAIGHT_STEPS, _ramp_zone, _subdivide
+from rfp_twin.planners.timing.grid import STRAIGHT_STEPS, knot_grid
 from rfp_twin.planners.timing.group import _CRAWL_SD, LIMIT_MARGIN
 from rfp_twin.planners.timing.kernel import SD_CAP, topp_kernel
 from rfp_twin.planners.timing.kinematics import pl_kinematics
@@ -55,52 +55,6 @@ def _grown(a, need):
 
 
 _grown = njit(cache=True, nogil=True)(_grown)
-
-
-@njit(cache=True, nogil=True)
-def _robot_grid(ptr, knots, coef, i, s_a, s_b, vmax, amax, sd_cap, grid_steps, straight):
-    """The grid of robot i moving over [s_a, s_b] (``group_grid`` of a one-robot group)."""
-    k0 = ptr[i]
-    k1 = ptr[i + 1]
-    cand = np.empty(k1 - k0 + 2)
-    m = 0
-    for j in range(k0, k1):
-        v = knots[j]
-        if v >= s_a and v <= s_b:
-            cand[m] = v
-            m += 1
-    cand[m] = s_a
-    cand[m + 1] = s_b
-    m += 2
-    k = np.unique(cand[:m])
-    keep = np.empty(k.size, dtype=np.bool_)
-    keep[0] = True
-    for j in range(1, k.size):
-        keep[j] = (k[j] - k[j - 1]) > 1e-9
-    k = k[keep]
-    k[-1] = s_b
-    if k.size < 2:
-        out = np.empty(2)
-        out[0] = s_a
-        out[1] = s_b
-        return out
-    n = k.size - 1
-    if straight <= grid_steps:
-        zone = np.zeros(n)
-        curved = np.ones(n, dtype=np.bool_)
-    else:
-        curved = np.empty(n, dtype=np.bool_)
-        qd = np.empty((n, 2))
-        buf = np.empty(2)
-        for j in range(n):
-            mid = 0.5 * (k[j + 1] + k[j])
-            eval_robot(ptr, knots, coef, i, mid, 2, buf)
-            curved[j] = buf[0] != 0.0 or buf[1] != 0.0
-            eval_robot(ptr, knots, coef, i, mid, 1, buf)
-            qd[j, 0] = abs(buf[0])
-            qd[j, 1] = abs(buf[1])
-        zone = _ramp_zone(qd, vmax, amax, sd_cap)
-    return _subdivide(k, curved, zone, grid_steps, straight)
 
 
 @njit(cache=True, nogil=True)
@@ -139,8 +93,8 @@ def _time_singles(ptr, knots, coef, robots, s_range, vmax, amax, vlim, alim, sd_
         if not s_b > s_a:
             status[r] = _LEFT                   # a static law: the per-group path
             continue
-        grid = _robot_grid(ptr, knots, coef, i, s_a, s_b, vmax, amax, sd_cap, grid_steps,
-                           straight)
+        grid = knot_grid(ptr, knots, coef, robots[r:r + 1], s_a, s_b, grid_steps, straight,
+                         straight > grid_steps, vmax, amax, sd_cap)
         G = grid.size
         qd = np.empty((G, 2))
         for j in range(G):

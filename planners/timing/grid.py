@@ -18,10 +18,10 @@ import math
 import numpy as np
 from numba import njit
 
-from rfp_twin.planners.smoothing import SmoothPath
+from rfp_twin.planners.smoothing import SmoothPath, eval_robot
 from rfp_twin.planners.timing.kernel import QD_EPS
 
-__all__ = ["STRAIGHT_STEPS", "group_grid"]
+__all__ = ["STRAIGHT_STEPS", "group_grid", "knot_grid"]
 
 #: Longest grid interval where every joint of a group moves linearly (cruise, or no
 #: joint moving), plan steps (:func:`group_grid`).
@@ -80,26 +80,64 @@ def group_grid(path: SmoothPath, robots: np.ndarray, grid_steps: float,
         s_a = min(s_a, float(span[0]))
     if span[1] is not None:
         s_b = max(s_b, float(span[1]))
-    ks = [path.robot_knots(int(i)) for i in robots]
-    k = np.concatenate(ks + [np.array([s_a, s_b])])
-    k = np.unique(k[(k >= s_a) & (k <= s_b)])
-    keep = np.concatenate([[True], np.diff(k) > 1e-9])
+    straight = STRAIGHT_STEPS if straight_steps is None else max(float(straight_steps), grid_steps)
+    zoned = limits is not None and straight > grid_steps
+    none = np.zeros(2 * robots.size)
+    vmax, amax, sd_cap = limits if zoned else (none, none, 0.0)
+    return knot_grid(path.ptr, path.knots, path.coef, np.ascontiguousarray(robots, dtype=np.int64),
+                     s_a, s_b, float(grid_steps), float(straight), zoned,
+                     np.asarray(vmax, dtype=np.float64), np.asarray(amax, dtype=np.float64),
+                     float(sd_cap))
+
+
+@njit(cache=True, nogil=True)
+def knot_grid(ptr, knots, coef, robots, s_a, s_b, grid_steps, straight, zoned, vmax, amax,
+              sd_cap):
+    """The grid of :func:`group_grid` once its span [s_a, s_b] is known: the knots of the
+    ``robots`` (k,) of the smoothed path (CSR ``ptr``, ``knots``, ``coef``) in the span,
+    cut by :func:`_subdivide`; with ``zoned``, straight intervals by their ramp zones
+    (``vmax``, ``amax`` (2k,), ``sd_cap`` as ``limits``), else every one at ``grid_steps``."""
+    m = 2
+    for r in range(robots.size):
+        m += ptr[robots[r] + 1] - ptr[robots[r]]
+    cand = np.empty(m)
+    m = 0
+    for r in range(robots.size):
+        for j in range(ptr[robots[r]], ptr[robots[r] + 1]):
+            v = knots[j]
+            if v >= s_a and v <= s_b:
+                cand[m] = v
+                m += 1
+    cand[m] = s_a
+    cand[m + 1] = s_b
+    k = np.unique(cand[:m + 2])
+    keep = np.empty(k.size, dtype=np.bool_)
+    keep[0] = True
+    for j in range(1, k.size):
+        keep[j] = (k[j] - k[j - 1]) > 1e-9
     k = k[keep]
     k[-1] = s_b
     if k.size < 2:
-        return np.array([s_a, s_b])
-    straight = STRAIGHT_STEPS if straight_steps is None else max(float(straight_steps), grid_steps)
-    if limits is None or straight <= grid_steps:
-        zone = np.zeros(k.size - 1)
-        curved = np.ones(k.size - 1, dtype=np.bool_)
-    else:
-        vmax, amax, sd_cap = limits
-        mid = 0.5 * (k[1:] + k[:-1])
-        curved = np.any(path.evaluate(mid, robots, 2).reshape(mid.size, -1) != 0.0, axis=1)
-        qd = np.abs(path.evaluate(mid, robots, 1).reshape(mid.size, -1))
-        zone = _ramp_zone(np.ascontiguousarray(qd), np.asarray(vmax, dtype=np.float64),
-                          np.asarray(amax, dtype=np.float64), float(sd_cap))
-    return _subdivide(k, curved, zone, float(grid_steps), straight)
+        out = np.empty(2)
+        out[0] = s_a
+        out[1] = s_b
+        return out
+    n = k.size - 1
+    if not zoned:
+        return _subdivide(k, np.ones(n, dtype=np.bool_), np.zeros(n), grid_steps, straight)
+    curved = np.zeros(n, dtype=np.bool_)
+    qd = np.empty((n, 2 * robots.size))
+    buf = np.empty(2)
+    for j in range(n):
+        mid = 0.5 * (k[j + 1] + k[j])
+        for r in range(robots.size):
+            eval_robot(ptr, knots, coef, robots[r], mid, 2, buf)
+            if buf[0] != 0.0 or buf[1] != 0.0:
+                curved[j] = True
+            eval_robot(ptr, knots, coef, robots[r], mid, 1, buf)
+            qd[j, 2 * r] = abs(buf[0])
+            qd[j, 2 * r + 1] = abs(buf[1])
+    return _subdivide(k, curved, _ramp_zone(qd, vmax, amax, sd_cap), grid_steps, straight)
 
 
 @njit(cache=True)
