@@ -39,6 +39,7 @@ FOUND, FAILED, BUDGET = 0, 1, 2
 #: its successor, then growing batches.
 BATCH_SIZES = (1, 4, 8, 16, 32)
 
+
 class _Batch:
     """Roadmap paths swept by one ``sweep_paths`` call (positions built by
     :func:`rfp_twin.planners.roadmap.sweep.path_positions`, as each path's
