@@ -110,7 +110,37 @@ def test_an_impossible_group_falls_back_to_replacing_its_target():
     assert_clear(geom, plan)
 
 
+def test_a_new_target_is_searched_in_place_before_a_whole_new_round():
+    """After the search fails and the group's robot gets a new target, the group alone is
+    searched again against everyone else's paths; it finds a way, so no new round runs.
+    The same target is replaced as with a whole new round, and the checker finds the
+    plan clear."""
+    geom, targets, offline, c = walled_in_case()
+    plans = {local: plan_reconfiguration(geom, targets, PlannerSettings(step_deg=0.5,
+                                                                        local_replace=local),
+                                         np.random.default_rng(0), offline=offline)
+             for local in (True, False)}
+    m = plans[True].metrics
+    assert m["n_local_groups"] == 1 and plans[False].metrics["n_local_groups"] == 0
+    assert plans[True].status[c] == REPLACED and plans[True].complete
+    np.testing.assert_array_equal(plans[True].targets, plans[False].targets)
+    np.testing.assert_allclose(plans[True].end(), plans[True].targets, atol=1e-9)
+    assert_clear(geom, plans[True])
+
+
 STARVED = SearchResolveSettings(max_nodes=1, max_recruits=0)
+
+
+def test_when_the_search_in_place_fails_the_whole_round_runs_as_without_it(deadlock_547):
+    """A starved search also fails in place: the plan is then byte for byte the one made
+    without the attempt (it draws nothing from the planner's generator)."""
+    geom, targets, _ = deadlock_547
+    plans = [plan_reconfiguration(geom, targets, PlannerSettings(
+        step_deg=0.25, search=STARVED, continuation=0, reruns=0, local_replace=local),
+        np.random.default_rng(5)) for local in (True, False)]
+    assert plans[0].metrics["n_local_groups"] == 0 and plans[0].metrics["rounds"] >= 1
+    for name in ("path_ptr", "path_step", "path_angles", "targets"):
+        np.testing.assert_array_equal(getattr(plans[0], name), getattr(plans[1], name))
 
 
 def test_search_budget_exhausted_also_falls_back(deadlock_547):
