@@ -41,14 +41,21 @@ def first_blocker(a, b, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs
 
     Tables as :func:`moving_collisions`; t is clamped to the table. Two base disks
     farther apart than the threshold are skipped before the exact test."""
+    x0, y0, x1, y1 = beta_segment(bx, by, a, b, l_alpha, s0, s1)
+    rho = math.sqrt(max((x0 - bx) ** 2 + (y0 - by) ** 2, (x1 - bx) ** 2 + (y1 - by) ** 2))
+    return segment_blocker(x0, y0, x1, y1, rho, t, obs_seg, obs_rho, obs_d, obs_th)
+
+
+@njit(cache=True)
+def segment_blocker(x0, y0, x1, y1, rho, t, obs_seg, obs_rho, obs_d, obs_th):
+    """:func:`first_blocker` of a beta segment already placed: (x0, y0, x1, y1) mm, rho
+    its farthest point from the robot's base, mm."""
     n_t = obs_seg.shape[0]
     k = int(round(t))
     if k < 0:
         k = 0
     elif k >= n_t:
         k = n_t - 1
-    x0, y0, x1, y1 = beta_segment(bx, by, a, b, l_alpha, s0, s1)
-    rho = math.sqrt(max((x0 - bx) ** 2 + (y0 - by) ** 2, (x1 - bx) ** 2 + (y1 - by) ** 2))
     for o in range(obs_seg.shape[1]):
         if obs_d[o] - rho - obs_rho[k, o] > obs_th[o]:
             continue
@@ -105,6 +112,10 @@ def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
     """
     P = Q.shape[0] - 1
     K = frac.shape[0]
+    # each sub-check's beta segment depends on (action, position, sub-check), not on the
+    # layer: placed once, when first needed (a stop's sub-checks share its position's)
+    seg = np.empty((3, P + 1, K, 5))
+    placed = np.zeros((3, P + 1, K), dtype=np.bool_)
     reach = np.zeros(P + 1, dtype=np.bool_)
     reach[0] = True
     nxt = np.zeros(P + 1, dtype=np.bool_)
@@ -136,11 +147,23 @@ def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
                 da = action_step(D, p, m, 0)
                 db = action_step(D, p, m, 1)
                 clear = True
+                a_ = m + 1
                 for j in range(K):
                     checks += 1
-                    o = first_blocker(Q[p, 0] + frac[j] * da, Q[p, 1] + frac[j] * db,
-                                      t_k + frac[j] * dt, bx, by, l_alpha, s0, s1, obs_seg,
-                                      obs_rho, obs_d, obs_th)
+                    jj = 0 if m == 0 else j
+                    if not placed[a_, p, jj]:
+                        x0, y0, x1, y1 = beta_segment(bx, by, Q[p, 0] + frac[jj] * da,
+                                                      Q[p, 1] + frac[jj] * db, l_alpha, s0, s1)
+                        seg[a_, p, jj, 0] = x0
+                        seg[a_, p, jj, 1] = y0
+                        seg[a_, p, jj, 2] = x1
+                        seg[a_, p, jj, 3] = y1
+                        seg[a_, p, jj, 4] = math.sqrt(max((x0 - bx) ** 2 + (y0 - by) ** 2,
+                                                          (x1 - bx) ** 2 + (y1 - by) ** 2))
+                        placed[a_, p, jj] = True
+                    o = segment_blocker(seg[a_, p, jj, 0], seg[a_, p, jj, 1], seg[a_, p, jj, 2],
+                                        seg[a_, p, jj, 3], seg[a_, p, jj, 4], t_k + frac[j] * dt,
+                                        obs_seg, obs_rho, obs_d, obs_th)
                     if o >= 0:
                         hits[o] += 1
                         clear = False
