@@ -18,7 +18,8 @@ import math
 import numpy as np
 from numba import njit
 
-from rfp_twin.models.geometry2d import beta_segment, point_segment_distance, segments_within
+from rfp_twin.models.geometry2d import (beta_segment, point_segment_distance, segment_distance,
+                                        segments_within)
 from rfp_twin.planners.roadmap.sweep import ACTIONS, action_step, action_taken
 
 
@@ -254,6 +255,24 @@ def static_collisions(q, bx, by, l_alpha, s0, s1, limits, st_seg, st_th, pt_xy, 
         out[r] = hit
 
 
+@njit(cache=True)
+def static_slack(x0, y0, x1, y1, st_seg, st_th, pt_xy, pt_th):
+    """Smallest clearance beyond its threshold of a beta segment (x0, y0, x1, y1) mm to
+    the static segments and points of :func:`static_collisions`, mm (inf: none)."""
+    slack = math.inf
+    for o in range(st_seg.shape[0]):
+        slack = min(slack, segment_distance(x0, y0, x1, y1, st_seg[o, 0], st_seg[o, 1],
+                                            st_seg[o, 2], st_seg[o, 3]) - st_th[o])
+    for o in range(pt_xy.shape[0]):
+        slack = min(slack, point_segment_distance(pt_xy[o, 0], pt_xy[o, 1], x0, y0, x1, y1)
+                    - pt_th[o])
+    return slack
+
+
+#: Clearance (mm) an edge check keeps beyond the motion bound before it skips points.
+SKIP_MARGIN_MM = 1e-6
+
+
 @njit(cache=True, nogil=True)
 def edges_forbidden(q0s, q1s, step, bx, by, l_alpha, s0, s1, limits, st_seg, st_th, pt_xy,
                     pt_th, out, counts):
@@ -261,9 +280,17 @@ def edges_forbidden(q0s, q1s, step, bx, by, l_alpha, s0, s1, limits, st_seg, st_
     of edge ``q0s[e] -> q1s[e]`` ((E, 2) deg each) is forbidden, the points being those
     of :func:`rfp_twin.planners.roadmap.graph._edge_samples` at most ``step`` (2,) deg
     apart per joint (ends included, as ``np.linspace`` places them); an edge stops at its
-    first forbidden point. ``counts[e]``: the edge's number of points (E,) int64."""
+    first forbidden point. ``counts[e]``: the edge's number of points (E,) int64.
+
+    Points are skipped where they cannot be forbidden: when both ends are within the
+    joint limits (then every point between is: the box is convex), a clear point's
+    clearance beyond the thresholds (:func:`static_slack`) bounds how many following
+    points stay clear, as no point of the segment moves more than
+    ``(l_alpha + s) |d alpha| + s |d beta|`` (rad, s the segment's farthest reach along
+    beta) from one point to the next. The answer is that of checking every point."""
     q = np.empty((1, 2))
     one = np.empty(1, dtype=np.bool_)
+    s_far = max(abs(s0), abs(s1))
     for e in range(q0s.shape[0]):
         mx = 0.0
         for c in range(2):
@@ -271,8 +298,16 @@ def edges_forbidden(q0s, q1s, step, bx, by, l_alpha, s0, s1, limits, st_seg, st_
         n = max(1, int(math.ceil(mx - 1e-9)))
         counts[e] = n + 1
         inc = 1.0 / n
+        inside = True
+        for qq in (q0s[e], q1s[e]):
+            if qq[0] < limits[0] - 1e-9 or qq[0] > limits[1] + 1e-9 or \
+                    qq[1] < limits[2] - 1e-9 or qq[1] > limits[3] + 1e-9:
+                inside = False
+        move = ((l_alpha + s_far) * abs(q1s[e, 0] - q0s[e, 0])
+                + s_far * abs(q1s[e, 1] - q0s[e, 1])) * inc * (math.pi / 180.0) * (1.0 + 1e-9)
         hit = False
-        for j in range(n + 1):
+        j = 0
+        while j <= n:
             f = 1.0 if j == n else j * inc
             for c in range(2):
                 q[0, c] = q0s[e, c] + f * (q1s[e, c] - q0s[e, c])
@@ -281,6 +316,13 @@ def edges_forbidden(q0s, q1s, step, bx, by, l_alpha, s0, s1, limits, st_seg, st_
             if one[0]:
                 hit = True
                 break
+            skip = 0
+            if inside and j < n:
+                x0, y0, x1, y1 = beta_segment(bx, by, q[0, 0], q[0, 1], l_alpha, s0, s1)
+                room = static_slack(x0, y0, x1, y1, st_seg, st_th, pt_xy, pt_th) - SKIP_MARGIN_MM
+                if room > 0.0:
+                    skip = n if move <= 0.0 or room >= move * n else int(room / move)
+            j += 1 + skip
         out[e] = hit
 
 
