@@ -66,6 +66,63 @@ def segment_blocker(x0, y0, x1, y1, rho, t, obs_seg, obs_rho, obs_d, obs_th):
     return -1
 
 
+#: Steps per block of :func:`block_discs`.
+DISC_BLOCK = 16
+
+
+@njit(cache=True)
+def block_discs(obs_seg):
+    """Discs holding each moving obstacle's beta segment over blocks of
+    :data:`DISC_BLOCK` steps: (n_blocks, n_obs, 3) centre x, y and radius, mm, from
+    ``obs_seg`` (T + 1, n_obs, 4). Block b holds steps ``b * DISC_BLOCK`` to
+    ``(b + 1) * DISC_BLOCK - 1``."""
+    n_t = obs_seg.shape[0]
+    n_b = (n_t + DISC_BLOCK - 1) // DISC_BLOCK
+    out = np.empty((n_b, obs_seg.shape[1], 3))
+    for b in range(n_b):
+        lo = b * DISC_BLOCK
+        hi = min(n_t, lo + DISC_BLOCK)
+        for o in range(obs_seg.shape[1]):
+            x_lo = y_lo = math.inf
+            x_hi = y_hi = -math.inf
+            for k in range(lo, hi):
+                for e in range(2):
+                    x_lo = min(x_lo, obs_seg[k, o, 2 * e])
+                    x_hi = max(x_hi, obs_seg[k, o, 2 * e])
+                    y_lo = min(y_lo, obs_seg[k, o, 2 * e + 1])
+                    y_hi = max(y_hi, obs_seg[k, o, 2 * e + 1])
+            cx = 0.5 * (x_lo + x_hi)
+            cy = 0.5 * (y_lo + y_hi)
+            r = 0.0
+            for k in range(lo, hi):
+                for e in range(2):
+                    r = max(r, math.hypot(obs_seg[k, o, 2 * e] - cx, obs_seg[k, o, 2 * e + 1] - cy))
+            out[b, o, 0] = cx
+            out[b, o, 1] = cy
+            out[b, o, 2] = r * (1.0 + 1e-12) + 1e-9
+    return out
+
+
+@njit(cache=True)
+def listed_blocker(x0, y0, x1, y1, rho, t, obs_seg, obs_rho, obs_d, obs_th, listed, n_listed):
+    """:func:`segment_blocker` over the obstacles ``listed[:n_listed]`` (increasing)
+    only, the others known to be clear."""
+    n_t = obs_seg.shape[0]
+    k = int(round(t))
+    if k < 0:
+        k = 0
+    elif k >= n_t:
+        k = n_t - 1
+    for r in range(n_listed):
+        o = listed[r]
+        if obs_d[o] - rho - obs_rho[k, o] > obs_th[o]:
+            continue
+        if segments_within(x0, y0, x1, y1, obs_seg[k, o, 0], obs_seg[k, o, 1],
+                           obs_seg[k, o, 2], obs_seg[k, o, 3], obs_th[o]):
+            return o
+    return -1
+
+
 @njit(cache=True)
 def moving_collisions(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, out, hits):
     """Moving-obstacle test of one robot.
@@ -90,9 +147,58 @@ def moving_collisions(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, ob
 SWEEP_FOUND, SWEEP_FAILED, SWEEP_BUDGET = 0, 1, 2
 
 
+@njit(cache=True)
+def _place_action(seg, disc, a_, p, Q, frac, da, db, bx, by, l_alpha, s0, s1, n_sub):
+    """Beta segments of action ``a_`` from position p at its first ``n_sub`` sub-checks
+    into ``seg[a_, p]`` (x0, y0, x1, y1, reach from the base), and a disc holding them
+    into ``disc[a_, p]`` (centre x, y, radius), mm."""
+    x_lo = y_lo = math.inf
+    x_hi = y_hi = -math.inf
+    for j in range(n_sub):
+        x0, y0, x1, y1 = beta_segment(bx, by, Q[p, 0] + frac[j] * da, Q[p, 1] + frac[j] * db,
+                                      l_alpha, s0, s1)
+        seg[a_, p, j, 0] = x0
+        seg[a_, p, j, 1] = y0
+        seg[a_, p, j, 2] = x1
+        seg[a_, p, j, 3] = y1
+        seg[a_, p, j, 4] = math.sqrt(max((x0 - bx) ** 2 + (y0 - by) ** 2,
+                                         (x1 - bx) ** 2 + (y1 - by) ** 2))
+        x_lo = min(x_lo, x0, x1)
+        x_hi = max(x_hi, x0, x1)
+        y_lo = min(y_lo, y0, y1)
+        y_hi = max(y_hi, y0, y1)
+    cx = 0.5 * (x_lo + x_hi)
+    cy = 0.5 * (y_lo + y_hi)
+    r = 0.0
+    for j in range(n_sub):
+        r = max(r, math.hypot(seg[a_, p, j, 0] - cx, seg[a_, p, j, 1] - cy),
+                math.hypot(seg[a_, p, j, 2] - cx, seg[a_, p, j, 3] - cy))
+    disc[a_, p, 0] = cx
+    disc[a_, p, 1] = cy
+    disc[a_, p, 2] = r * (1.0 + 1e-12) + 1e-9
+
+
+@njit(cache=True)
+def _near_obstacles(d, t_lo, t_hi, n_t, obs_blk, obs_th, listed):
+    """Obstacles that may come within their threshold of disc ``d`` (x, y, r) at a step
+    from ``t_lo`` to ``t_hi`` (rounded and clamped as the checks read the table), into
+    ``listed`` in increasing order; returns how many."""
+    k_lo = min(max(int(round(t_lo)), 0), n_t - 1)
+    k_hi = min(max(int(round(t_hi)), 0), n_t - 1)
+    n = 0
+    for o in range(obs_blk.shape[1]):
+        for b in range(k_lo // DISC_BLOCK, k_hi // DISC_BLOCK + 1):
+            if math.hypot(d[0] - obs_blk[b, o, 0], d[1] - obs_blk[b, o, 1]) - d[2] \
+                    - obs_blk[b, o, 2] <= obs_th[o] + 1e-9:
+                listed[n] = o
+                n += 1
+                break
+    return n
+
+
 @njit(cache=True, nogil=True)
 def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
-                 bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, hits):
+                 bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, obs_blk, hits):
     """The layer loop of :class:`rfp_twin.planners.roadmap.sweep._PathSweep` compiled, with
     :func:`first_blocker` as its black box: the same reachable sets, trajectory and node
     count as the Python loop, with fewer checks.
@@ -113,10 +219,16 @@ def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
     """
     P = Q.shape[0] - 1
     K = frac.shape[0]
-    # each sub-check's beta segment depends on (action, position, sub-check), not on the
-    # layer: placed once, when first needed (a stop's sub-checks share its position's)
+    n_t = obs_seg.shape[0]
+    n_obs = obs_seg.shape[1]
+    # an action's sub-checks depend on (action, position), not on the layer: their beta
+    # segments and a disc holding them all are placed once, when first needed (a stop's
+    # sub-checks share one segment); an obstacle whose discs over the action's steps
+    # (obs_blk) stay farther than its threshold from that disc cannot block it
     seg = np.empty((3, P + 1, K, 5))
-    placed = np.zeros((3, P + 1, K), dtype=np.bool_)
+    disc = np.empty((3, P + 1, 3))
+    placed = np.zeros((3, P + 1), dtype=np.bool_)
+    listed = np.empty(n_obs, dtype=np.int64)
     reach = np.zeros(P + 1, dtype=np.bool_)
     reach[0] = True
     nxt = np.zeros(P + 1, dtype=np.bool_)
@@ -149,22 +261,18 @@ def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
                 db = action_step(D, p, m, 1)
                 clear = True
                 a_ = m + 1
-                for j in range(K):
+                if not placed[a_, p]:
+                    _place_action(seg, disc, a_, p, Q, frac, da, db, bx, by, l_alpha, s0, s1,
+                                  1 if m == 0 else K)
+                    placed[a_, p] = True
+                n_listed = _near_obstacles(disc[a_, p], t_k + frac[0] * dt,
+                                           t_k + frac[K - 1] * dt, n_t, obs_blk, obs_th, listed)
+                for j in range(K if n_listed > 0 else 0):
                     checks += 1
                     jj = 0 if m == 0 else j
-                    if not placed[a_, p, jj]:
-                        x0, y0, x1, y1 = beta_segment(bx, by, Q[p, 0] + frac[jj] * da,
-                                                      Q[p, 1] + frac[jj] * db, l_alpha, s0, s1)
-                        seg[a_, p, jj, 0] = x0
-                        seg[a_, p, jj, 1] = y0
-                        seg[a_, p, jj, 2] = x1
-                        seg[a_, p, jj, 3] = y1
-                        seg[a_, p, jj, 4] = math.sqrt(max((x0 - bx) ** 2 + (y0 - by) ** 2,
-                                                          (x1 - bx) ** 2 + (y1 - by) ** 2))
-                        placed[a_, p, jj] = True
-                    o = segment_blocker(seg[a_, p, jj, 0], seg[a_, p, jj, 1], seg[a_, p, jj, 2],
-                                        seg[a_, p, jj, 3], seg[a_, p, jj, 4], t_k + frac[j] * dt,
-                                        obs_seg, obs_rho, obs_d, obs_th)
+                    o = listed_blocker(seg[a_, p, jj, 0], seg[a_, p, jj, 1], seg[a_, p, jj, 2],
+                                       seg[a_, p, jj, 3], seg[a_, p, jj, 4], t_k + frac[j] * dt,
+                                       obs_seg, obs_rho, obs_d, obs_th, listed, n_listed)
                     if o >= 0:
                         hits[o] += 1
                         clear = False
@@ -181,7 +289,7 @@ def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
 
 @njit(cache=True, nogil=True)
 def sweep_paths(Qs, Ds, q_ptr, frac, k_static, k_maxs, t0, dt, goal_after, nodes_left,
-                bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, hits, stop):
+                bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, obs_blk, hits, stop):
     """:func:`sweep_layers` on paths ``m = 0, 1, ...`` in turn, until one finds the goal
     or the node budget ends, as the sweep search calls it path after path.
 
@@ -208,7 +316,7 @@ def sweep_paths(Qs, Ds, q_ptr, frac, k_static, k_maxs, t0, dt, goal_after, nodes
         b = q_ptr[m + 1]
         outcome, k_end, came, n, c = sweep_layers(
             Qs[a:b], Ds[a - m:b - m - 1], frac, k_static, k_maxs[m], t0, dt, goal_after, left,
-            bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, hits)
+            bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, obs_blk, hits)
         nodes[m] = n
         checks += c
         if left >= 0:

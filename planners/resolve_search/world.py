@@ -32,9 +32,10 @@ import math
 import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
-from rfp_twin.planners.resolve_search.kernels import (moving_collisions, pair_conflict, reach_of,
-                                             segments_at, static_collisions, sweep_layers,
-                                             sweep_paths, edges_forbidden)
+from rfp_twin.planners.resolve_search.kernels import (block_discs, edges_forbidden,
+                                                      moving_collisions, pair_conflict, reach_of,
+                                                      segments_at, static_collisions,
+                                                      sweep_layers, sweep_paths)
 from rfp_twin.planners.resolve_search.paths import PathSet
 from rfp_twin.planners.roadmap import Arm, ArmTrajectory
 
@@ -193,6 +194,7 @@ class AlphaBetaWorld:
         st_seg = np.ascontiguousarray(np.vstack([st_seg, ob_seg]))
         st_th = np.concatenate([st_th, ob_th + self.md])
         l_alpha, s0, limits = float(g.alpha_len[i]), float(g.seg_start[i]), self.limits[i]
+        obs_blk = block_discs(obs_seg)
         hits = np.zeros(len(movers), dtype=np.int64)
         self.hits[i] = (np.array(movers, dtype=np.int64), hits)
 
@@ -223,7 +225,7 @@ class AlphaBetaWorld:
                                 np.ascontiguousarray(frac, dtype=np.float64), int(k_static),
                                 int(k_max), float(t0), float(dt), float(goal_after),
                                 int(nodes_left), bx, by, l_alpha, s0, s1, obs_seg, obs_rho,
-                                obs_d, obs_th, hits)
+                                obs_d, obs_th, obs_blk, hits)
         sweep.hits = hits            # the blocker counts it adds to
 
         def sweep_many(Qs, Ds, q_ptr, frac, k_static, k_maxs, t0, dt, goal_after, nodes_left,
@@ -231,7 +233,7 @@ class AlphaBetaWorld:
             return sweep_paths(Qs, Ds, q_ptr, np.ascontiguousarray(frac, dtype=np.float64),
                                int(k_static), k_maxs, float(t0), float(dt), float(goal_after),
                                int(nodes_left), bx, by, l_alpha, s0, s1, obs_seg, obs_rho,
-                               obs_d, obs_th, hits_out, stop)
+                               obs_d, obs_th, obs_blk, hits_out, stop)
 
         v = np.full(2, self.step_deg)
         return Arm(start=np.asarray(start, dtype=np.float64), goal=np.asarray(goal, dtype=np.float64),

@@ -96,3 +96,23 @@ def test_edge_checks_that_skip_clear_points_answer_as_checking_every_point():
             assert out[e] == each.any(), (trial, e)
             n_hit += int(each.any())
     assert 200 < n_hit < 1800
+
+
+def test_block_discs_hold_every_segment_of_their_steps():
+    """The discs that let the sweep skip far obstacles hold each obstacle's beta segment
+    at every step of their block (a gone obstacle, far away, included)."""
+    from rfp_twin.planners.resolve_search.kernels import DISC_BLOCK, block_discs
+
+    rng = np.random.default_rng(3)
+    ang = np.cumsum(rng.normal(0.0, 2.0, size=(101, 2)), axis=0)
+    obs = np.stack([segments_at(0.0, 0.0, ang, L_ALPHA, S0, S1),
+                    segments_at(22.4, 0.0, ang[::-1], L_ALPHA, S0, S1)], axis=1)
+    obs[90:, 1, :] = 1.0e7                     # the second one gone after step 89
+    discs = block_discs(obs)
+    assert discs.shape == ((101 + DISC_BLOCK - 1) // DISC_BLOCK, 2, 3)
+    for k in range(101):
+        for o in range(2):
+            cx, cy, r = discs[k // DISC_BLOCK, o]
+            for e in range(2):
+                assert np.hypot(obs[k, o, 2 * e] - cx, obs[k, o, 2 * e + 1] - cy) <= r
+    assert discs[0, 0, 2] < L_ALPHA + S1 + 1.0   # a block's disc is not the whole reach
