@@ -87,8 +87,7 @@ class PlannerSettings:
     group's robot gets a new target the search first plans that group alone again,
     against everyone else's paths of the plan so far; only if a group still fails does a
     whole new round (a new planner run of the array) follow, the same round as without
-    this attempt. On the 500-robot layout at 3.5 mm (seeds 1-10) the same targets are
-    replaced and the plan stage takes 38 s instead of 46 s (benchmarks/RESULTS.md, S15).
+    this attempt; the same too when the groups' new paths would lengthen the plan.
     """
 
     algorithm: str = "greedy"
@@ -407,7 +406,9 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
                                      new_goal, movable, md, settings, search_settings,
                                      np.random.default_rng([seed, 2]))
             search_s += local.seconds
-            if all(g.success for g in local.groups):
+            # taken when every group is resolved without lengthening the plan it joins
+            # (else a whole new round may find a shorter one)
+            if all(g.success for g in local.groups) and local.n_steps <= outcome.n_steps:
                 outcome = local
                 n_local_groups += len(to_replace)
                 stuck = stuck.copy()

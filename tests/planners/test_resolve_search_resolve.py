@@ -128,6 +128,29 @@ def test_a_new_target_is_searched_in_place_before_a_whole_new_round():
     assert_clear(geom, plans[True])
 
 
+def test_a_search_in_place_that_lengthens_the_plan_gives_way_to_a_whole_round(monkeypatch):
+    """The in-place result is taken only if it does not lengthen the plan it joins: made
+    longer here, the plan is the one of a whole new round (as without the attempt)."""
+    import rfp_twin.planners.solver as solver
+
+    geom, targets, offline, c = walled_in_case()
+    without = plan_reconfiguration(geom, targets, PlannerSettings(step_deg=0.5, local_replace=False),
+                                   np.random.default_rng(0), offline=offline)
+    searched = solver._search_replaced
+
+    def longer(*args, **kwargs):
+        out = searched(*args, **kwargs)
+        out.n_steps += 10**6
+        return out
+
+    monkeypatch.setattr(solver, "_search_replaced", longer)
+    plan = plan_reconfiguration(geom, targets, PlannerSettings(step_deg=0.5),
+                                np.random.default_rng(0), offline=offline)
+    assert plan.metrics["n_local_groups"] == 0
+    for name in ("path_ptr", "path_step", "path_angles", "targets"):
+        np.testing.assert_array_equal(getattr(plan, name), getattr(without, name))
+
+
 STARVED = SearchResolveSettings(max_nodes=1, max_recruits=0)
 
 
