@@ -229,6 +229,8 @@ def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
     disc = np.empty((3, P + 1, 3))
     placed = np.zeros((3, P + 1), dtype=np.bool_)
     listed = np.empty(n_obs, dtype=np.int64)
+    f_lo = frac.min() if K > 0 else 0.0       # the sub-checks' steps lie between these
+    f_hi = frac.max() if K > 0 else 0.0
     reach = np.zeros(P + 1, dtype=np.bool_)
     reach[0] = True
     nxt = np.zeros(P + 1, dtype=np.bool_)
@@ -265,8 +267,8 @@ def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
                     _place_action(seg, disc, a_, p, Q, frac, da, db, bx, by, l_alpha, s0, s1,
                                   1 if m == 0 else K)
                     placed[a_, p] = True
-                n_listed = _near_obstacles(disc[a_, p], t_k + frac[0] * dt,
-                                           t_k + frac[K - 1] * dt, n_t, obs_blk, obs_th, listed)
+                n_listed = _near_obstacles(disc[a_, p], t_k + f_lo * dt, t_k + f_hi * dt, n_t,
+                                           obs_blk, obs_th, listed)
                 for j in range(K if n_listed > 0 else 0):
                     checks += 1
                     jj = 0 if m == 0 else j
