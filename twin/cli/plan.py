@@ -172,7 +172,8 @@ def print_summary(summary: dict, out: Path) -> None:
         ("efficiency (Eq. 11)", f"{m['efficiency']:.4f}"),
         ("convergence (1st run)", f"{m['convergence']:.4f}"),
         ("targets replaced", str(m["n_replaced"]) + (
-            f" (then {m['n_local_groups']} groups kept by the search in place)"
+            f" ({m['n_local_groups']} group{'s' if m['n_local_groups'] > 1 else ''} then "
+            "searched in place)"
             if m.get("n_local_groups") else "")),
         ("deadlocked", str(m["n_deadlocked"])),
         *([("kept by re-run", f"{m.get('n_rerun_robots', 0)} robots, "
