@@ -29,7 +29,8 @@ Sections
    9-12 s, median 6 points per axis.
 2. ``gc``: Sayres 2021 Table 3's GC row at 2.5 mm / 0.25 deg on the paper's 547-robot
    grid (preset ``sdss-v``): fold time with acceleration limits next to the paper's
-   12.55 s (which assumes infinite acceleration).
+   12.55 s (which assumes infinite acceleration); ``--beta-first F`` plans with
+   ``PlannerSettings.beta_first = F``.
 3. ``compare``: the choices, measured on the first three seeds of ``main``: smoothing
    method (running average vs spline), RDP tolerance, interaction distance, initial
    window, and the timing backend (numba kernel vs the toppra library, per group).
@@ -69,12 +70,13 @@ STAGES = ("smooth", "group", "time", "simplify", "verify", "total")
 
 
 def scenario(preset: str, layout: Layout, buffer_mm: float, seeds, *, step_deg: float = 0.1,
-             algorithm: str = "greedy", backend: str = DEFAULT_BACKEND):
+             algorithm: str = "greedy", backend: str = DEFAULT_BACKEND, beta_first: float = 0.0):
     """The array and one plan per seed: ``(Reconfiguration, [Plan])``. Seeded random
     targets (clear by the step rule's MD) and reverse plans with target replacement
     (:func:`rfp_twin.twin.pipeline.plan_random`, the sequence of ``rfp-twin plan --seed S``)."""
     rc = Reconfiguration.from_names(preset, layout, buffer_mm=buffer_mm, options=PlanOptions(
-        algorithm=algorithm, step_deg=step_deg, resolve="replace", timing_backend=backend))
+        algorithm=algorithm, step_deg=step_deg, resolve="replace", timing_backend=backend,
+        beta_first=beta_first))
     return rc, [plan_random(rc.geom, s, rc.options)[1] for s in seeds]
 
 
@@ -233,8 +235,9 @@ def bench_backends(seeds, preset="sdss-v-production", algorithm="greedy") -> lis
 
 
 # =====================================================================================
-def bench_gc(seeds) -> list[str]:
-    rc, plans = scenario("sdss-v", Layout.sdss_v_grid(), 2.5, seeds, step_deg=0.25)
+def bench_gc(seeds, beta_first: float = 0.0) -> list[str]:
+    rc, plans = scenario("sdss-v", Layout.sdss_v_grid(), 2.5, seeds, step_deg=0.25,
+                         beta_first=beta_first)
     rows = []
     for s, plan in zip(seeds, plans):
         t0 = time.perf_counter()
@@ -246,7 +249,8 @@ def bench_gc(seeds) -> list[str]:
               f"median {rep.points_per_axis_median:.0f}, verified {rep.verified}", flush=True)
     md = ["### Fold time with acceleration limits: Sayres 2021 Table 3, GC, 2.5 mm, 0.25 deg, 547 robots", ""]
     md.append(f"Preset `sdss-v` (segment 0-15 mm), `Layout.sdss_v_grid()`, greedy reverse plans, "
-              f"seeds {list(seeds)}; post-processed with the defaults (verified at 2.47 mm).")
+              f"seeds {list(seeds)}, beta_first {beta_first:g}; post-processed with the defaults "
+              f"(verified at 2.47 mm).")
     md.append("")
     md.append("| seed | efficiency | stepwise fold s (infinite accel.) | fold s with 30 deg/s, 45 deg/s^2 | post-processing s | points/axis median |")
     md.append("|---|---|---|---|---|---|")
@@ -357,6 +361,8 @@ def main(argv=None) -> int:
                     help="timing backend of main")
     ap.add_argument("--presimplify", type=float, default=DEFAULT_PRESIMPLIFY_DEG,
                     help="pre-simplification tolerance of main, deg (0: off)")
+    ap.add_argument("--beta-first", type=float, default=0.0,
+                    help="gc: PlannerSettings.beta_first (0: the paper's GC moves)")
     ap.add_argument("--append-results", type=Path, default=None, metavar="FILE",
                     help="say to paste the markdown section into FILE (nothing is written)")
     args = ap.parse_args(argv)
@@ -371,7 +377,7 @@ def main(argv=None) -> int:
         md += block + [""]
     if args.only in ("gc", "all"):
         print("gc: 547-robot grid, GC 2.5 mm 0.25 deg", flush=True)
-        md += bench_gc(args.gc_seeds) + [""]
+        md += bench_gc(args.gc_seeds, args.beta_first) + [""]
     if args.only in ("compare", "all"):
         print("compare: choices", flush=True)
         md += bench_compare(args.seeds[:3]) + [""]

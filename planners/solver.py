@@ -88,6 +88,14 @@ class PlannerSettings:
     against everyone else's paths of the plan so far; only if a group still fails does a
     whole new round (a new planner run of the array) follow, the same round as without
     this attempt; the same too when the groups' new paths would lengthen the plan.
+    beta_first : float >= 0, 0 = off (the paper's GC/MC moves, as kaiju makes them). Else
+    in every run of the whole array, the robots whose alpha and beta travel together
+    (in steps) is at most this fraction of the run's longest alpha travel retract beta
+    first: their obvious move holds alpha until beta is at its destination, and when
+    that move is blocked they move as usual. A retracted arm leaves its neighbours room
+    to turn, and those robots have the time to spare (Table 3 setting, 547 grid, 2.5 mm,
+    0.25 deg, seeds 0-9 at 0.85: median fold with acceleration limits 13.74 -> 13.28 s,
+    benchmarks/RESULTS.md, S15).
     """
 
     algorithm: str = "greedy"
@@ -102,6 +110,7 @@ class PlannerSettings:
     continuation: int = 8
     reruns: int = 8
     local_replace: bool = True
+    beta_first: float = 0.0
 
     def __post_init__(self) -> None:
         if self.resolve not in RESOLVERS:
@@ -124,6 +133,9 @@ class PlannerSettings:
             raise SpecError(f"field 'continuation' = {self.continuation!r}; allowed: >= 0")
         if self.reruns < 0:
             raise SpecError(f"field 'reruns' = {self.reruns!r}; allowed: >= 0")
+        if not (np.isfinite(self.beta_first) and 0.0 <= self.beta_first <= 2.0):
+            raise SpecError(f"field 'beta_first' = {self.beta_first!r}; allowed: [0, 2] "
+                            "(0: off)")
 
     @property
     def steps_limit(self) -> int:
@@ -144,7 +156,20 @@ def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: 
     return run_array(geom, start, dest, movable, step_deg=settings.step_deg,
                      max_steps=settings.steps_limit, md=md,
                      greed=1.0 if settings.greedy else settings.greed,
-                     phobia=0.0 if settings.greedy else settings.phobia, seed=seed)
+                     phobia=0.0 if settings.greedy else settings.phobia, seed=seed,
+                     beta_first=beta_first_robots(start, dest, movable, settings.beta_first))
+
+
+def beta_first_robots(start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
+                      fraction: float) -> np.ndarray | None:
+    """(n,) bool: the movable robots whose alpha and beta travel from ``start`` to
+    ``dest`` ((n, 2) deg) together is at most ``fraction`` of the longest alpha travel
+    (see ``PlannerSettings.beta_first``); None when ``fraction`` is 0 or nobody moves."""
+    movable = np.asarray(movable, dtype=bool)
+    if fraction <= 0.0 or not movable.any():
+        return None
+    travel = np.abs(np.asarray(dest, dtype=np.float64) - np.asarray(start, dtype=np.float64))
+    return movable & (travel.sum(axis=1) <= fraction * travel[movable, 0].max())
 
 
 def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,

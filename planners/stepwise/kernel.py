@@ -134,7 +134,7 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
                  fid_ptr, fid_idx, fid_xy, fid_buffer,
                  alpha_len, seg_start, seg_end, buffer, limits, step_deg, max_steps, md,
                  greed, phobia, seed, ev_robot, ev_step, ev_angles, cur, fid_end_xy=None,
-                 greedy_first=None, script=None):
+                 greedy_first=None, script=None, beta_first=None):
     """Run GC/MC from ``start`` towards ``dest``: :func:`run_stepwise_arrays` on per-robot arrays.
 
     Parameters
@@ -188,6 +188,8 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
     fid_end_xy = fid_xy if fid_end_xy is None else _per_item(fid_end_xy, m, (2,))
     greedy_first = np.zeros(n, np.bool_) if greedy_first is None else \
         np.ascontiguousarray(greedy_first, dtype=np.bool_)
+    beta_first = np.zeros(n, np.bool_) if beta_first is None else \
+        np.ascontiguousarray(beta_first, dtype=np.bool_)
     if script is None:
         script = (np.zeros(n + 1, np.int64), np.zeros(0), np.zeros((0, 2)))
     script = (np.ascontiguousarray(script[0], dtype=np.int64),
@@ -198,7 +200,8 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         fid_xy, fid_end_xy, _per_item(fid_buffer, m), _per_item(alpha_len, n),
         _per_item(seg_start, n), _per_item(seg_end, n), _per_item(buffer, n),
         _per_item(limits, n, (4,)), step_deg, max_steps, md, _per_item(greed, n),
-        _per_item(phobia, n), seed, ev_robot, ev_step, ev_angles, cur, greedy_first, script)
+        _per_item(phobia, n), seed, ev_robot, ev_step, ev_angles, cur, greedy_first, script,
+        beta_first)
 
 
 @njit(cache=True, nogil=True)
@@ -206,7 +209,7 @@ def run_stepwise_arrays(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dis
                         fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer,
                         alpha_len, seg_start, seg_end, buffer, limits, step_deg, max_steps, md,
                         greed, phobia, seed, ev_robot, ev_step, ev_angles, cur, greedy_first,
-                        script):
+                        script, beta_first):
     """The compiled kernel of :func:`run_stepwise`, every geometry argument an array.
 
     Arguments as in :func:`run_stepwise`, except: ``fid_end_xy`` (m, 2) float64 mm (equal
@@ -223,7 +226,7 @@ def run_stepwise_arrays(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dis
            alpha_len, seg_start, seg_end, buffer)
     s_ptr, s_step, s_angles = script
     return step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, greedy_first,
-                     n_left, rng_state, arr, par, rs, near, sched, scratch,
+                     beta_first, n_left, rng_state, arr, par, rs, near, sched, scratch,
                      (ev_robot, ev_step, ev_angles), (s_ptr, s_step, s_angles, s_ptr[:-1].copy()))
 
 
@@ -263,7 +266,8 @@ def replay_target(i, step, cur, s_ptr, s_step, s_angles, s_at, cand):
 
 
 @njit(cache=True, _nrt=False)
-def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, greedy_first, n_left,
+def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, greedy_first,
+              beta_first, n_left,
               rng_state, arr, par, rs, near, sched, scratch, ev, script):
     """The step loop of :func:`run_stepwise`: every robot, step after step, until all are home.
 
@@ -318,6 +322,12 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, gree
             cb = cur[i, 1]
             da = dest[i, 0]
             db = dest[i, 1]
+            # beta first: while beta is away from its destination the obvious move
+            # holds alpha; when that move is blocked the robot plans as usual
+            bf = beta_first[i] and abs(cb - db) >= ANGLE_EPS and not replayed and (
+                gc or (greedy_first[i] and not home[i]))
+            if bf:
+                da = ca
             bx = base_xy[i, 0]
             by = base_xy[i, 1]
             s1 = seg_end[i]
@@ -344,6 +354,9 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, gree
                     cand[0, 0] = _toward(ca, da, ka_best, step_deg, a_lo, a_hi)
                     cand[0, 1] = _toward(cb, db, kb_best, step_deg, b_lo, b_hi)
                 best = try_cand(cand, 0, i, ca, cb, bx, by, s1, md, True, arr, par, rs, near)
+            if bf and best < 0:
+                da = dest[i, 0]
+                ka_best = _sign(da - ca)
             if replayed:
                 if best < 0:
                     return -2, step      # the robots around it left its recorded move no room
@@ -355,7 +368,8 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, gree
                 continue
             if best < 0:
                 fill_candidates(cand, cost, order, ca, cb, da, db, step_deg, a_lo, a_hi, b_lo, b_hi)
-                obvious = 3 * (ka_best + 1) + kb_best + 1
+                # (a beta-first robot tried the beta-only move: its obvious one is untried)
+                obvious = -1 if bf else 3 * (ka_best + 1) + kb_best + 1
             if gc and best < 0:
                 sort_by_cost(order, cost)
                 for p in range(9):
@@ -416,7 +430,7 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, gree
             n_moves += 1
             moved_at[i] = n_moves
             n_awake += 1
-            now_home = abs(na - da) < ANGLE_EPS and abs(nb - db) < ANGLE_EPS
+            now_home = abs(na - dest[i, 0]) < ANGLE_EPS and abs(nb - db) < ANGLE_EPS
             if now_home and gc:
                 # a greedy robot at home never moves again and is never visited: its
                 # arrival is its last breakpoint (without it, interpolation to the plan's

@@ -85,6 +85,7 @@ def sub_csr(ptr: np.ndarray, idx: np.ndarray, robots: np.ndarray, renumber: bool
 def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray, *,
               step_deg: float, max_steps: int, md: float, greed, phobia, seed: int,
               cap: int | None = None, greedy_first: np.ndarray | None = None,
+              beta_first: np.ndarray | None = None,
               robots: np.ndarray | None = None, script: tuple | None = None) -> StepRun:
     """Run the stepwise kernel on ``geom`` from ``start`` towards ``dest``.
 
@@ -138,7 +139,7 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
             a["alpha_len"], a["seg_start"], a["seg_end"], a["buffer"], limits,
             step_deg, max_steps, md, greed, phobia, seed,
             ev_robot, ev_step, ev_angles, final, fid_end_xy=geom.fid_end_xy,
-            greedy_first=greedy_first, script=script)
+            greedy_first=greedy_first, script=script, beta_first=beta_first)
         seconds += time.perf_counter() - t0
         if n_ev == -2:
             return StepRun(final, int(n_steps), ev_robot[:0], ev_step[:0], ev_angles[:0],

@@ -173,6 +173,7 @@ def test_colliding_and_nan_targets_are_rejected_with_robot_names():
     ({"step_deg": 0.0}, "step_deg"), ({"greed": 1.5}, "greed"), ({"phobia": -0.1}, "phobia"),
     ({"max_steps": 0}, "max_steps"), ({"max_rounds": -1}, "max_rounds"),
     ({"continuation": -1}, "continuation"), ({"resolve": "magic"}, "resolve"),
+    ({"beta_first": -0.5}, "beta_first"), ({"beta_first": float("nan")}, "beta_first"),
 ])
 def test_settings_are_checked(kwargs, field):
     with pytest.raises(SpecError, match=f"'{field}'.*allowed"):
@@ -239,3 +240,15 @@ def test_a_planner_that_leaves_most_robots_stuck_is_an_error_not_a_search():
         plan_reconfiguration(geom, targets, settings, np.random.default_rng(1))
     plan = plan_reconfiguration(geom, targets, settings, np.random.default_rng(1), resolve=False)
     assert (plan.status == DEADLOCKED).sum() > 37 // 2
+
+
+def test_beta_first_plans_pass_the_checker_on_the_547_grid(sdss_547):
+    """Table 3 setting (547 grid, GC, 2.5 mm, 0.25 deg, replacement) with the short-travel
+    robots retracting beta first: complete, clear by the independent checker, and not
+    the plan made without it."""
+    geom = ArrayGeometry(load_spec("sdss-v"), sdss_547, 2.5)
+    _, plain = plan_random(geom, 0, step_deg=0.25)
+    _, plan = plan_random(geom, 0, step_deg=0.25, beta_first=0.85)
+    assert plan.complete
+    assert_clear(geom, plan)
+    assert plan.n_steps != plain.n_steps

@@ -189,3 +189,56 @@ def test_sub_csr_keeps_the_rows_asked_for_and_renumbers_robot_lists():
     # robot -> obstacle lists: every entry of the rows, unchanged
     p, i, take = sub_csr(ptr, idx, np.array([1, 2]), renumber=False)
     assert p.tolist() == [0, 2, 3] and i.tolist() == [0, 3, 0] and take.tolist() == [2, 3, 4]
+
+
+def test_a_beta_first_robot_alone_turns_alpha_only_once_beta_is_home():
+    """Nothing blocks a robot alone: marked ``beta_first`` it moves beta only until beta
+    is at its destination, then alpha; unmarked, both from the first step."""
+    geom = make_geom(1, 2.0)
+    start, dest = np.array([[300.0, 40.0]]), np.array([[10.0, 170.0]])
+    kw = dict(step_deg=0.5, max_steps=2000, md=0.1, greed=1.0, phobia=0.0, seed=0)
+    for marked in (True, False):
+        run = run_array(geom, start, dest, np.ones(1, bool), beta_first=np.array([marked]), **kw)
+        ptr, steps, angles = build_paths(1, run.ev_robot, run.ev_step, run.ev_angles, start,
+                                         run.final, run.n_steps)
+        k = np.arange(run.n_steps + 1)
+        a, b = np.interp(k, steps, angles[:, 0]), np.interp(k, steps, angles[:, 1])
+        np.testing.assert_allclose([a[-1], b[-1]], dest[0], atol=ANGLE_EPS)
+        beta_home = int(np.argmax(np.abs(b - dest[0, 1]) < ANGLE_EPS))
+        alpha_starts = int(np.flatnonzero(np.abs(np.diff(a)) > ANGLE_EPS)[0])
+        assert beta_home == 260                                  # 130 deg at 0.5 deg a step
+        assert alpha_starts == (beta_home if marked else 0)
+        assert run.n_steps == (260 + 580 if marked else 580)     # 290 deg of alpha
+
+
+def test_beta_first_robots_on_a_grid_arrive_and_keep_the_step_rule(problem):
+    """Half of the 37-robot grid marked ``beta_first``: a different run, every robot at
+    its destination, and every neighbour pair clear of the buffers at every step."""
+    geom, targets, fold, kw = problem
+    movable = np.ones(geom.n_robots, bool)
+    marked = np.zeros(geom.n_robots, bool)
+    marked[::2] = True
+    run = run_array(geom, targets, fold, movable, greed=1.0, phobia=0.0, seed=0,
+                    beta_first=marked, **kw)
+    plain = run_array(geom, targets, fold, movable, greed=1.0, phobia=0.0, seed=0, **kw)
+    np.testing.assert_allclose(run.final, fold, atol=ANGLE_EPS)
+    assert not np.array_equal(run.ev_angles, plain.ev_angles)
+    ptr, steps, angles = build_paths(geom.n_robots, run.ev_robot, run.ev_step, run.ev_angles,
+                                     targets, run.final, run.n_steps)
+    kk = np.arange(run.n_steps + 1)
+    at = np.stack([np.column_stack([np.interp(kk, steps[ptr[i]:ptr[i + 1]],
+                                              angles[ptr[i]:ptr[i + 1], c]) for c in range(2)])
+                   for i in range(geom.n_robots)], axis=1)
+    assert min(geom.pair_clearance(at[s]).min() for s in range(kk.size)) > 0.0
+
+
+def test_beta_first_robots_are_the_ones_whose_travel_fits_the_longest_alpha():
+    from rfp_twin.planners.solver import beta_first_robots
+
+    start = np.array([[350.0, 30.0], [100.0, 40.0], [20.0, 170.0], [300.0, 100.0]])
+    dest = np.tile([10.0, 170.0], (4, 1))
+    movable = np.array([True, True, True, False])
+    # travel (deg): 480, 220, 10, (offline); longest alpha travel 340 of the movable
+    np.testing.assert_array_equal(beta_first_robots(start, dest, movable, 0.85),
+                                  [False, True, True, False])
+    assert beta_first_robots(start, dest, movable, 0.0) is None
