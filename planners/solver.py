@@ -95,7 +95,9 @@ class PlannerSettings:
     that move is blocked they move as usual. A retracted arm leaves its neighbours room
     to turn, and those robots have the time to spare (Table 3 setting, 547 grid, 2.5 mm,
     0.25 deg, seeds 0-9 at 0.85: median fold with acceleration limits 13.74 -> 13.28 s,
-    benchmarks/RESULTS.md, S15).
+    benchmarks/RESULTS.md, S15). fold_repairs : with ``beta_first``, whole runs at most
+    per round that switch the rule of the robot blocking the last one's alpha, each
+    kept if robots arrive sooner (:mod:`rfp_twin.planners.fold_repair`); 0 = none.
     """
 
     algorithm: str = "greedy"
@@ -111,6 +113,7 @@ class PlannerSettings:
     reruns: int = 8
     local_replace: bool = True
     beta_first: float = 0.0
+    fold_repairs: int = 12
 
     def __post_init__(self) -> None:
         if self.resolve not in RESOLVERS:
@@ -133,6 +136,8 @@ class PlannerSettings:
             raise SpecError(f"field 'continuation' = {self.continuation!r}; allowed: >= 0")
         if self.reruns < 0:
             raise SpecError(f"field 'reruns' = {self.reruns!r}; allowed: >= 0")
+        if self.fold_repairs < 0:
+            raise SpecError(f"field 'fold_repairs' = {self.fold_repairs!r}; allowed: >= 0")
         if not (np.isfinite(self.beta_first) and 0.0 <= self.beta_first <= 2.0):
             raise SpecError(f"field 'beta_first' = {self.beta_first!r}; allowed: [0, 2] "
                             "(0: off)")
@@ -147,9 +152,10 @@ class PlannerSettings:
 
 
 def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
-             settings: PlannerSettings, seed: int) -> StepRun:
+             settings: PlannerSettings, seed: int, beta_first: np.ndarray | None = None) -> StepRun:
     """One planner run: the stepwise kernel (:func:`rfp_twin.planners.stepwise.run_array`), or for
-    ``algorithm="roadmap"`` one prioritized roadmap pass."""
+    ``algorithm="roadmap"`` one prioritized roadmap pass. ``beta_first`` (n,) bool: the
+    robots that retract beta first [default: :func:`beta_first_robots` of the settings]."""
     md = array_max_displacement(geom, settings.step_deg)
     if settings.algorithm == "roadmap":
         return _run_roadmap(geom, start, dest, movable, settings, md, seed)
@@ -157,7 +163,8 @@ def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: 
                      max_steps=settings.steps_limit, md=md,
                      greed=1.0 if settings.greedy else settings.greed,
                      phobia=0.0 if settings.greedy else settings.phobia, seed=seed,
-                     beta_first=beta_first_robots(start, dest, movable, settings.beta_first))
+                     beta_first=beta_first if beta_first is not None else
+                     beta_first_robots(start, dest, movable, settings.beta_first))
 
 
 def beta_first_robots(start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
@@ -223,6 +230,21 @@ def _continue(geom: ArrayGeometry, outcome, groups: list[np.ndarray], goal: np.n
         paths.angles[i] = np.vstack([paths.angles[i][keep], an])
         outcome.n_steps = max(outcome.n_steps, int(np.ceil(offset + st[-1])))
     return cont
+
+
+def _shorten(geom: ArrayGeometry, run: StepRun, start: np.ndarray, goal: np.ndarray,
+             movable: np.ndarray, settings: PlannerSettings, seed: int):
+    """The run with the robot that ends it freed where a beta-first switch of its blocker
+    does it (:func:`rfp_twin.planners.fold_repair.shorten_run`): (run, runs made, their
+    kernel seconds)."""
+    from rfp_twin.planners.fold_repair import shorten_run
+
+    flags = beta_first_robots(start, goal, movable, settings.beta_first)
+    best, _, made, spent = shorten_run(
+        geom, run, start, goal, movable, flags,
+        lambda f: run_once(geom, start, goal, movable, settings, seed, beta_first=f),
+        settings.step_deg, settings.fold_repairs)
+    return best, made, spent
 
 
 def _search_replaced(geom: ArrayGeometry, outcome, groups: list[np.ndarray],
@@ -334,6 +356,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     rerun_s = 0.0
     rerun_attempts = n_rerun_groups = n_rerun_robots = 0
     n_local_groups = 0
+    n_repair_runs = 0
     search_settings = None
     while True:
         seed = int(rng.integers(0, 2**31 - 1))
@@ -345,9 +368,15 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             start, goal = fold, targets
         tau_sr += run.seconds
         pg_retries += run.retries
+        round_s = run.seconds          # this round's path generation, repair runs included
+        if settings.beta_first > 0 and settings.fold_repairs > 0 and settings.algorithm != "roadmap":
+            run, repair_runs, repair_s = _shorten(geom, run, start, goal, movable, settings, seed)
+            tau_sr += repair_s
+            round_s += repair_s
+            n_repair_runs += repair_runs
         stuck = stuck_mask(run, goal, movable)
         if convergence is None:
-            tau_pg = run.seconds
+            tau_pg = round_s
             convergence = 1.0 - stuck.sum() / max(1, movable.sum())
             if resolve and stuck.sum() > MAX_STUCK_FRACTION * max(1, movable.sum()):
                 raise PlanningError(
@@ -474,7 +503,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         "continuation_s": continuation_s, "n_continued_groups": n_continued_groups,
         "n_continued_robots": n_continued_robots, "n_rerun_groups": n_rerun_groups,
         "n_rerun_robots": n_rerun_robots, "rerun_attempts": rerun_attempts, "rerun_s": rerun_s,
-        "n_local_groups": n_local_groups,
+        "n_local_groups": n_local_groups, "n_fold_repair_runs": n_repair_runs,
         "planning_s": time.perf_counter() - clock,
     })
     plan = Plan(
