@@ -51,15 +51,16 @@ from dataclasses import replace as _with
 import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
-from rfp_twin.models.errors import PlanningError, SpecError, TargetError
+from rfp_twin.models.errors import PlanningError, SpecError
 from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, REPLACED, Plan, build_paths
 from rfp_twin.planners.continuation import continue_groups
 from rfp_twin.planners.offline import apply_offline
+from rfp_twin.planners.replacement import replace_one, search_replaced
 from rfp_twin.planners.rerun import clusters, rerun_deadlocks, stuck_mask
 if TYPE_CHECKING:
     from rfp_twin.planners.resolve_search import SearchResolveSettings
 from rfp_twin.planners.stepwise import StepRun, array_max_displacement, run_array
-from rfp_twin.planners.targets import check_targets, random_targets
+from rfp_twin.planners.targets import check_targets
 
 ALGORITHMS = ("greedy", "markov", "roadmap")
 DIRECTIONS = ("reverse", "forward")
@@ -247,56 +248,9 @@ def _shorten(geom: ArrayGeometry, run: StepRun, start: np.ndarray, goal: np.ndar
     return best, made, spent
 
 
-def _search_replaced(geom: ArrayGeometry, outcome, groups: list[np.ndarray],
-                     old_targets: np.ndarray, targets: np.ndarray, start: np.ndarray,
-                     goal: np.ndarray, movable: np.ndarray, md: float,
-                     settings: PlannerSettings, search_settings, rng: np.random.Generator):
-    """The search again on the groups it could not resolve, now that one robot of each has
-    a new target, against the paths of ``outcome`` (everyone else keeps the plan made
-    so far). A robot with a new target has no lead-in: its path is reset to standing at
-    its start (``start``, ``goal`` : (n, 2) deg, the planning frame's, new targets in).
-    Returns the search's SearchOutcome; ``groups`` without a new robot are not searched
-    again and count as failed."""
-    from rfp_twin.planners.resolve_search import GroupResult, PathSet, SearchOutcome, resolve_groups
-
-    moved = np.any(targets != old_targets, axis=1)
-    if not all(moved[g].any() for g in groups):
-        return SearchOutcome(outcome.paths, outcome.n_steps,
-                             [GroupResult(np.asarray(g), np.asarray(g), False, 0, 0.0)
-                              for g in groups])
-    paths = PathSet(list(outcome.paths.steps), list(outcome.paths.angles))
-    for i in np.flatnonzero(moved):
-        paths.steps[i] = np.zeros(1)
-        paths.angles[i] = start[i][None, :].astype(np.float64)
-    return resolve_groups(geom, paths, outcome.n_steps, groups, start, goal, movable, md,
-                          settings.step_deg, _with(search_settings, step0_first=True), rng)
-
-
 def deadlocked_groups(geom: ArrayGeometry, stuck: np.ndarray) -> list[np.ndarray]:
     """Connected components of the stuck robots through the Eq. 4 neighbour graph."""
     return clusters(geom.pairs, stuck, 0)
-
-
-def _replace_one(geom: ArrayGeometry, rng: np.random.Generator, targets: np.ndarray,
-                 group: np.ndarray, margin_mm: float, first: int = -1) -> np.ndarray:
-    """New random target for one robot of a deadlocked group (Sayres 2021 Sect. 5.2).
-
-    Members are tried in random order (``first``, if given, before them: the robot the
-    search could not plan); one whose neighbourhood leaves no clear spot is skipped.
-    Returns the updated (n, 2) targets (unchanged if no member fits).
-    """
-    order = rng.permutation(group)
-    if first >= 0:
-        order = np.concatenate([[first], order[order != first]])
-    for i in order:
-        keep = np.ones(geom.n_robots, dtype=bool)
-        keep[i] = False
-        try:
-            return random_targets(geom, rng, fixed=keep, initial=targets, margin_mm=margin_mm,
-                                  robots=np.array([i]), attempts=1)
-        except TargetError:
-            continue
-    return targets
 
 
 #: Largest fraction of the movable robots that may be stuck after the first run for
@@ -448,7 +402,7 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
         round_targets = targets
         for group, first in zip(to_replace, firsts):
             before = targets
-            targets = _replace_one(geom, rng, targets, group, md, first)
+            targets = replace_one(geom, rng, targets, group, md, first)
             n_replace_groups += int(np.any(targets != before))
             replaced |= targets[:, 0] != original[:, 0]
             replaced |= targets[:, 1] != original[:, 1]
@@ -456,9 +410,9 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
             # first the groups alone, with their new targets, against everyone else's
             # paths; only if one of them still fails, a whole new round
             new_start, new_goal = (targets, fold) if settings.direction == "reverse" else (fold, targets)
-            local = _search_replaced(geom, outcome, to_replace, round_targets, targets, new_start,
-                                     new_goal, movable, md, settings, search_settings,
-                                     np.random.default_rng([seed, 2]))
+            local = search_replaced(geom, outcome, to_replace, round_targets, targets, new_start,
+                                    new_goal, movable, md, settings.step_deg, search_settings,
+                                    np.random.default_rng([seed, 2]))
             search_s += local.seconds
             # taken when every group is resolved without lengthening the plan it joins
             # (else a whole new round may find a shorter one)

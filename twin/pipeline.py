@@ -93,6 +93,8 @@ class PlanOptions:
         with greedy-first Markov robots around it, before the search (0: straight to it)
     beta_first : robots whose alpha + beta travel is at most this fraction of the longest
         alpha travel retract beta first (0: off; ``PlannerSettings.beta_first``)
+    fold_repairs : with beta_first, whole runs at most per round that free the robot
+        ending the run from the neighbour blocking it (``PlannerSettings.fold_repairs``)
     apf_gain, lambda3 : field gain (1/s) and CAPF cooperative weight
     raw : deliver the stepwise paths (constant speed, infinite acceleration), no
         post-processing; they are checked at the planning buffer
@@ -112,6 +114,7 @@ class PlanOptions:
     max_rounds: int = 50
     reruns: int = 8
     beta_first: float = 0.0
+    fold_repairs: int = 12
     apf_gain: float = 1.0
     lambda3: float = 0.03
     raw: bool = False
@@ -139,7 +142,7 @@ class PlanOptions:
                                step_deg=self.step_deg, greed=self.greed, phobia=self.phobia,
                                direction=self.direction, max_steps=self.max_steps,
                                max_rounds=self.max_rounds, reruns=self.reruns,
-                               beta_first=self.beta_first,
+                               beta_first=self.beta_first, fold_repairs=self.fold_repairs,
                                resolve="replace" if self.resolve == "none" else self.resolve)
 
     def field_settings(self):

@@ -136,14 +136,14 @@ def test_a_search_in_place_that_lengthens_the_plan_gives_way_to_a_whole_round(mo
     geom, targets, offline, c = walled_in_case()
     without = plan_reconfiguration(geom, targets, PlannerSettings(step_deg=0.5, local_replace=False),
                                    np.random.default_rng(0), offline=offline)
-    searched = solver._search_replaced
+    searched = solver.search_replaced
 
     def longer(*args, **kwargs):
         out = searched(*args, **kwargs)
         out.n_steps += 10**6
         return out
 
-    monkeypatch.setattr(solver, "_search_replaced", longer)
+    monkeypatch.setattr(solver, "search_replaced", longer)
     plan = plan_reconfiguration(geom, targets, PlannerSettings(step_deg=0.5),
                                 np.random.default_rng(0), offline=offline)
     assert plan.metrics["n_local_groups"] == 0

@@ -76,6 +76,9 @@ def plan(
                                      "fraction of the longest alpha travel retract beta first, "
                                      "leaving their neighbours room to turn; [0, 2], 0: off (the "
                                      "paper's moves)."),
+    fold_repairs: int = typer.Option(12, help="With --beta-first: whole runs at most per round "
+                                     "that switch the rule of the robot blocking the last "
+                                     "robot, kept when robots arrive sooner; >= 0."),
     apf_gain: float = typer.Option(1.0, help="apf/capf: field gain u = -gain J^T grad psi, 1/s."),
     lambda3: float = typer.Option(0.03, help="capf: cooperative weight (Macktoobian Eq. 5)."),
     max_steps: Optional[int] = typer.Option(None, help="Step limit [default: 1000 deg / step]."),
@@ -105,7 +108,7 @@ def plan(
     t_start = time.perf_counter()
     options = PlanOptions(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,
                           direction=direction, resolve=resolve, reruns=reruns, max_steps=max_steps,
-                          beta_first=beta_first,
+                          beta_first=beta_first, fold_repairs=fold_repairs,
                           apf_gain=apf_gain, lambda3=lambda3, raw=raw, budget_mm=budget,
                           max_points=max_points, timing_backend=timing_backend)
     spec = load_spec(preset)
