@@ -175,6 +175,9 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
         move (even past ``max_steps``, which then only bounds the planning); robots with
         an empty row plan as usual. A replayed robot must be given ``movable`` False (it
         is not waited for) and gets no breakpoints. [default: nobody replays]
+    beta_first : (n,) bool or None, robots whose obvious move holds alpha while beta is
+        away from its destination (greedy and greedy-first robots); when that beta-only
+        move is blocked they move as usual [default: none]
 
     Returns
     -------

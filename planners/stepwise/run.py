@@ -108,6 +108,8 @@ def run_array(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable:
         so only the breakpoints written take memory]
     greedy_first : (n,) bool or None, Markov robots that take their obvious move whenever
         it passes and a Markov move only when blocked [default: none]
+    beta_first : (n,) bool or None, robots that retract beta first
+        (:func:`rfp_twin.planners.stepwise.kernel.run_stepwise`) [default: none]
     robots : (k,) int64 increasing robot indices, or None (all): run only these, on
         their own neighbour lists; every per-robot argument (``start``, ``dest``,
         ``movable``, ``greed``, ``phobia``, ``greedy_first``, ``script``) and the result
