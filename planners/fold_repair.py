@@ -20,6 +20,7 @@ from typing import Callable
 import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
+from rfp_twin.models.geometry2d import pair_distances
 from rfp_twin.planners.plan import build_paths
 from rfp_twin.planners.rerun import arrival_steps, stuck_mask
 from rfp_twin.planners.stepwise import StepRun
@@ -51,19 +52,23 @@ def alpha_blockers(geom: ArrayGeometry, run: StepRun, start: np.ndarray, goal: n
     if held.size == 0:
         return []
     pairs = geom.pairs
-    rows = np.flatnonzero((pairs[:, 0] == robot) | (pairs[:, 1] == robot))
-    other = np.where(pairs[rows, 0] == robot, pairs[rows, 1], pairs[rows, 0])
+    rows = pairs[(pairs[:, 0] == robot) | (pairs[:, 1] == robot)]
+    other = np.where(rows[:, 0] == robot, rows[:, 1], rows[:, 0])
     after = k[held + 1]
-    ang = np.empty((held.size, n, 2))
-    for i in range(n):
-        s, q = steps[ptr[i]:ptr[i + 1]], angles[ptr[i]:ptr[i + 1]]
-        ang[:, i, 0] = np.interp(after, s, q[:, 0])
-        ang[:, i, 1] = np.interp(after, s, q[:, 1])
-    ang[:, robot, 0] = a[held] + np.sign(goal[robot, 0] - a[held]) * step_deg
-    ang[:, robot, 1] = b[held + 1]
+    ang = np.zeros((n, 2))                       # only the robot and its neighbours matter
     count: dict[int, int] = {}
-    for row in ang:
-        j = int(other[np.argmin(geom.pair_clearance(row)[rows])])
+    near = [(int(j), np.interp(after, steps[ptr[j]:ptr[j + 1]], angles[ptr[j]:ptr[j + 1], 0]),
+             np.interp(after, steps[ptr[j]:ptr[j + 1]], angles[ptr[j]:ptr[j + 1], 1]))
+            for j in other]
+    tried_a = a[held] + np.sign(goal[robot, 0] - a[held]) * step_deg
+    spare = geom.buffer[rows[:, 0]] + geom.buffer[rows[:, 1]]
+    for h in range(held.size):
+        for j, ja, jb in near:
+            ang[j, 0], ang[j, 1] = ja[h], jb[h]
+        ang[robot, 0], ang[robot, 1] = tried_a[h], b[held[h] + 1]
+        d = pair_distances(geom.base_xy, ang, rows, geom.alpha_len, geom.seg_start,
+                           geom.seg_end) - spare
+        j = int(other[np.argmin(d)])
         count[j] = count.get(j, 0) + 1
     return sorted(count, key=lambda j: -count[j])
 
