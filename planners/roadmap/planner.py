@@ -124,14 +124,21 @@ def _candidates(roadmap: Roadmap, settings: RoadmapSettings,
     forbidden zone skipped, at most ``max_paths`` and none slower than ``max_path_time``.
     The edges of the next :data:`EDGE_BLOCK` paths are checked together."""
     def cleaned() -> Iterator[np.ndarray]:
-        for path, est in zip(roadmap.paths, roadmap.est_times):
-            if settings.max_path_time is not None and est > settings.max_path_time:
-                return
-            # drop zero-length edges (a vertex on the start or goal)
-            same = np.all(np.abs(path[1:] - path[:-1]) <= 1e-8 + 1e-5 * np.abs(path[:-1]),
-                          axis=1)
-            path = path[np.concatenate([[True], ~same])]
-            yield path if len(path) >= 2 else np.stack([path[0], path[0]])
+        paths, times = roadmap.paths, roadmap.est_times
+        for lo in range(0, len(paths), EDGE_BLOCK):
+            block = paths[lo:lo + EDGE_BLOCK]
+            # drop zero-length edges (a vertex on the start or goal), a block at a time:
+            # a vertex is kept unless it repeats the one before it in its path
+            v = np.concatenate(block)
+            keep = np.ones(len(v), dtype=bool)
+            keep[1:] = ~np.all(np.abs(v[1:] - v[:-1]) <= 1e-8 + 1e-5 * np.abs(v[:-1]), axis=1)
+            first = np.cumsum([0] + [len(p) for p in block[:-1]])
+            keep[first] = True
+            for path, est, at in zip(block, times[lo:lo + EDGE_BLOCK], first):
+                if settings.max_path_time is not None and est > settings.max_path_time:
+                    return
+                path = path[keep[at:at + len(path)]]
+                yield path if len(path) >= 2 else np.stack([path[0], path[0]])
 
     def clear(paths: Iterator[np.ndarray]) -> Iterator[np.ndarray]:
         while block := list(itertools.islice(paths, EDGE_BLOCK)):
