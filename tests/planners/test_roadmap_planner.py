@@ -111,3 +111,46 @@ def test_leaving_the_lead_in_at_once_can_be_left_out():
     blocked = line_arm(lambda q, t: np.asarray(t) >= 1.0, t_static=5.0, lead_in=lead)
     assert _departures(blocked, direct_only(n_stop=None, depart_at_start=False),
                        SearchStats()) == [arm.t_start]
+
+
+def test_candidate_paths_lose_their_zero_length_edges_and_keep_their_order():
+    """``_candidates`` drops a vertex that repeats the one before it in its path (a
+    vertex on the start or goal), a block of paths at a time: the same paths as cleaning
+    each path alone, in roadmap order, cut at ``max_path_time`` and ``max_paths``."""
+    from dataclasses import replace as with_
+    from rfp_twin.planners.roadmap.graph import Roadmap
+    from rfp_twin.planners.roadmap.planner import _candidates
+
+    rng = np.random.default_rng(3)
+    paths = []
+    for k in range(150):
+        p = rng.uniform(0.0, 100.0, size=(int(rng.integers(2, 6)), 2))
+        if k % 3 == 0:
+            p[1] = p[0]                                   # on the start
+        if k % 5 == 0:
+            p[-2] = p[-1] * (1 + 1e-7)                    # on the goal, within tolerance
+        if k % 11 == 0:
+            p[:] = p[0]                                   # all one point
+        if k % 7 == 0 and paths:
+            p[0] = paths[-1][-1]                          # starts where the one before ends
+        paths.append(p)
+    times = np.arange(150, dtype=float)
+
+    def alone(p):
+        same = np.all(np.abs(p[1:] - p[:-1]) <= 1e-8 + 1e-5 * np.abs(p[:-1]), axis=1)
+        p = p[np.concatenate([[True], ~same])]
+        return p if len(p) >= 2 else np.stack([p[0], p[0]])
+
+    class Everything:                                     # no edge is forbidden
+        def clear_paths(self, block):
+            return block
+
+    roadmap = Roadmap(np.zeros((0, 2)), np.zeros((0, 2), dtype=np.int64), paths, times)
+    settings = RoadmapSettings(max_paths=120, max_path_time=100.5)
+    got = list(_candidates(roadmap, settings, Everything()))
+    want = [alone(p) for p in paths[:101]]
+    assert len(got) == 101
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
+    got = list(_candidates(roadmap, with_(settings, max_path_time=None), Everything()))
+    assert len(got) == 120
