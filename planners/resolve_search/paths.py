@@ -9,7 +9,7 @@ Units: angles in deg, time in planner steps (float step indices).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -26,6 +26,9 @@ class PathSet:
 
     steps: list
     angles: list
+    #: robot -> (its steps, its angles, motion end): paths are replaced, never changed in
+    #: place, so an entry holds while both arrays are the ones stored
+    _ends: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
     def from_csr(cls, ptr: np.ndarray, steps: np.ndarray, angles: np.ndarray) -> PathSet:
@@ -58,9 +61,14 @@ class PathSet:
 
     def motion_end(self, i: int) -> float:
         """Step of robot i's last motion (its last breakpoint that changes the angles)."""
-        a = self.angles[i]
+        st, a = self.steps[i], self.angles[i]
+        held = self._ends.get(i)
+        if held is not None and held[0] is st and held[1] is a:
+            return held[2]
         moved = np.flatnonzero(np.any(np.abs(np.diff(a, axis=0)) > 1e-12, axis=1))
-        return 0.0 if moved.size == 0 else float(self.steps[i][moved[-1] + 1])
+        end = 0.0 if moved.size == 0 else float(st[moved[-1] + 1])
+        self._ends[i] = (st, a, end)
+        return end
 
     def signature(self, i: int) -> bytes:
         """Robot i's path up to its last motion, as bytes (equal paths, equal bytes)."""

@@ -52,3 +52,14 @@ def test_csr_round_trip_ends_every_path_at_the_plan_length():
         np.testing.assert_allclose(back.sample(i, np.arange(0.0, 21.0)), p.sample(i, np.arange(0.0, 21.0)))
     with pytest.raises(SpecError, match="robot index 0 still moves"):
         p.to_csr(5)
+
+
+def test_motion_end_follows_a_replaced_path():
+    """The motion end is kept per robot while its path arrays are the same objects; a
+    path replaced (as the search does) gets its own."""
+    ps = PathSet([np.array([0.0, 5.0, 9.0])], [np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 0.0]])])
+    assert ps.motion_end(0) == 5.0 and ps.motion_end(0) == 5.0
+    ps.steps[0] = np.array([0.0, 7.0, 9.0])
+    assert ps.motion_end(0) == 7.0          # new steps, same angles object: computed again
+    ps.angles[0] = np.array([[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]])
+    assert ps.motion_end(0) == 0.0
