@@ -241,6 +241,8 @@ def _shorten(geom: ArrayGeometry, run: StepRun, start: np.ndarray, goal: np.ndar
     from rfp_twin.planners.fold_repair import shorten_run
 
     flags = beta_first_robots(start, goal, movable, settings.beta_first)
+    if flags is None:                    # nobody moves
+        return run, 0, 0.0
     best, _, made, spent = shorten_run(
         geom, run, start, goal, movable, flags,
         lambda f: run_once(geom, start, goal, movable, settings, seed, beta_first=f),
