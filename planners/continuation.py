@@ -27,6 +27,7 @@ from typing import Callable
 
 import numpy as np
 
+from rfp_twin.models.second_thread import second_thread
 from rfp_twin.planners.plan import build_paths
 from rfp_twin.planners.stepwise import ANGLE_EPS
 
@@ -71,7 +72,9 @@ def continue_groups(n: int, final: np.ndarray, dest: np.ndarray, groups: list[np
         -> an object with ``final``, ``n_steps``, ``ev_robot``, ``ev_step``, ``ev_angles``
         (one stepwise kernel run, :func:`rfp_twin.planners.solver.run_once`)
     seed : int, seed of the first attempt (attempt a uses ``seed + a``)
-    attempts : kernel runs at most (greed / phobia from :data:`ATTEMPTS`, cycled)
+    attempts : kernel runs at most (greed / phobia from :data:`ATTEMPTS`, cycled); two
+        run at once (the second on :func:`rfp_twin.models.second_thread.second_thread`,
+        which must not be the caller's thread), with the same results as one at a time
 
     Returns
     -------
@@ -82,26 +85,54 @@ def continue_groups(n: int, final: np.ndarray, dest: np.ndarray, groups: list[np
     final = np.ascontiguousarray(final, dtype=np.float64)
     dest = np.ascontiguousarray(dest, dtype=np.float64)
     todo = list(range(len(groups)))
-    for a in range(max(0, attempts)):
-        if not todo:
-            break
+    attempts = max(0, attempts)
+
+    def start(a: int):
+        """Attempt a on the groups still to do: (its run's arguments)."""
         movable = np.zeros(n, dtype=bool)
         for g in todo:
             movable[groups[g]] = True
         greed, phobia = ATTEMPTS[a % len(ATTEMPTS)]
-        r = run(final, dest, movable, greed, phobia, seed + a)
-        out.attempts += 1
-        arrived = np.all(np.abs(r.final - dest) < ANGLE_EPS, axis=1)
-        ptr, steps, angles = build_paths(n, r.ev_robot, r.ev_step, r.ev_angles, final, r.final,
-                                         r.n_steps)
-        for g in list(todo):
-            members = groups[g]
-            if not arrived[members].all():
-                continue
-            for i in members:
-                i = int(i)
-                out.paths[i] = (steps[ptr[i]:ptr[i + 1]].copy(), angles[ptr[i]:ptr[i + 1]].copy())
-            out.solved.append(g)
-            todo.remove(g)
+        return final, dest, movable, greed, phobia, seed + a
+
+    a = 0
+    while a < attempts and todo:
+        # attempts a and a + 1 at once, a + 1 on the second core as if a solves no group
+        # (most attempts do not); it counts only then, else it is run again after a
+        ahead = second_thread().submit(run, *start(a + 1)) if a + 1 < attempts else None
+        try:
+            solved = _take(out, n, groups, todo, dest, final, run(*start(a)))
+        except BaseException:
+            if ahead is not None:
+                ahead.cancel()
+            raise
+        a += 1
+        if ahead is not None and (solved or not todo):
+            ahead.cancel()           # started already: it ends on its own, unused
+        elif ahead is not None:
+            _take(out, n, groups, todo, dest, final, ahead.result())
+            a += 1
     out.seconds = time.perf_counter() - clock
     return out
+
+
+def _take(out: Continuation, n: int, groups: list[np.ndarray], todo: list[int],
+          dest: np.ndarray, final: np.ndarray, r) -> bool:
+    """Record attempt ``r`` in ``out``: the groups of ``todo`` whose members all arrived
+    (removed from ``todo``) with their paths. Returns whether any group was solved."""
+    out.attempts += 1
+    arrived = np.all(np.abs(r.final - dest) < ANGLE_EPS, axis=1)
+    ptr, steps, angles = build_paths(n, r.ev_robot, r.ev_step, r.ev_angles, final, r.final,
+                                     r.n_steps)
+    solved = False
+    for g in list(todo):
+        members = groups[g]
+        if not arrived[members].all():
+            continue
+        for i in members:
+            i = int(i)
+            out.paths[i] = (steps[ptr[i]:ptr[i + 1]].copy(), angles[ptr[i]:ptr[i + 1]].copy())
+        out.solved.append(g)
+        todo.remove(g)
+        solved = True
+    return solved
