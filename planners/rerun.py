@@ -94,6 +94,14 @@ MAX_MARGIN_HOPS = 4
 #: group: the same result as running it after them.
 WHOLE_ARRAY_ROBOTS = 2000
 
+#: Attempts at most of that whole-array ladder (the patches get ``attempts``). At 3.5 mm
+#: on the 500-robot layout its runs rarely complete and it is there for the attempt that
+#: leaves fewest robots stuck for the search; its sixth to eighth attempts (LADDER[5:],
+#: 0.15-0.25 s each) changed the plan in 1 of 40 seeds (seed 1, whose fold they made
+#: longer), and the whole plan stage took 8-13 % less without them; 4 attempts changed
+#: the plan of 4 seeds, lengthening the fold in 3 (benchmarks/RESULTS.md, S16).
+WHOLE_ATTEMPTS = 5
+
 #: One local kernel run: (robots (k,) int64 increasing, script (ptr, steps, angles) CSR
 #: paths of the ring robots in ``robots`` order (empty rows: the others), movable (k,),
 #: greed (k,), phobia (k,), greedy_first (k,) bool, seed, max_steps) -> StepRun over
@@ -240,7 +248,7 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
     ahead = None
     if stuck.size <= WHOLE_ARRAY_ROBOTS and groups:
         ahead = _Ahead(_ladder, stuck, None, movable, pairs, paths, {}, run, goal, fold,
-                       max_steps, int(seed) + 7919, attempts)
+                       max_steps, int(seed) + 7919, min(attempts, WHOLE_ATTEMPTS))
     for c, members in enumerate(groups):
         own = np.zeros(stuck.size, dtype=bool)
         own[members] = True

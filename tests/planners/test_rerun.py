@@ -15,6 +15,7 @@ from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import REACHED, build_paths
 import rfp_twin.planners.rerun as rerun_module
 from rfp_twin.planners.rerun import (EXTRA_ATTEMPTS, LADDER, MARGIN_HOPS, PATIENCE, STEP_CAP,
+                                     WHOLE_ATTEMPTS,
                                      arrival_steps, clusters, grow_region, rerun_deadlocks)
 from rfp_twin.planners.solver import PlannerSettings
 from rfp_twin.planners.stepwise import StepRun, array_max_displacement, run_array
@@ -152,6 +153,18 @@ def test_groups_their_patches_leave_get_whole_array_runs_on_small_arrays():
     rr = _rerun(first, run, whole=True, seed=0, attempts=8)
     assert rr.partial and not rr.complete and rr.solved.tolist() == (np.arange(N_CHAIN) == 13).tolist()
     assert rr.run.final[12].tolist() == [1.0, 1.0]
+
+
+def test_the_whole_array_ladder_makes_at_most_its_own_number_of_attempts():
+    first = _fake(100, [12, 13])
+    # every whole-array attempt leaves one robot fewer stuck than the one before it
+    # could (no stale streak), none completes: it stops at WHOLE_ATTEMPTS, the patches
+    # at their own patience
+    patches = [(125, [12, 13])] * PATIENCE
+    run, calls = _ladder_of(patches, whole=[(125, [12, 13]), (125, [12])] * 8)
+    rr = _rerun(first, run, whole=True, seed=0, attempts=8)
+    assert rr.partial and rr.attempts == PATIENCE + WHOLE_ATTEMPTS
+    assert sorted(calls.whole) == list(range(WHOLE_ATTEMPTS))    # none started beyond
 
 
 def test_the_whole_array_ladder_runs_beside_the_patches_and_stops_when_they_suffice():
