@@ -13,9 +13,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from rfp_twin.models.array import ArrayGeometry
-from rfp_twin.planners.resolve_search.kernels import pair_conflict, segments_at
+from rfp_twin.models.geometry2d import DEG, beta_segment, segment_distance, segments_within
 from rfp_twin.planners.resolve_search.paths import PathSet
 
 
@@ -51,19 +52,20 @@ def trim_tails(geom: ArrayGeometry, paths: PathSet, dest: np.ndarray, skip: np.n
         if at.size == 0 or paths.motion_end(j) <= st[at[0]]:
             continue                    # never arrives, or arrives once and stays
         first = float(st[at[0]])
-        ks = np.arange(math.floor(first), math.ceil(end) + 1, dtype=np.float64)
         bj = geom.base_xy[j]
-        held = segments_at(float(bj[0]), float(bj[1]), np.ascontiguousarray(
-            np.repeat(dest[j][None, :], ks.size, axis=0)), float(geom.alpha_len[j]),
-            float(geom.seg_start[j]), float(geom.seg_end[j]))
+        held = beta_segment(float(bj[0]), float(bj[1]), float(dest[j, 0]), float(dest[j, 1]),
+                            float(geom.alpha_len[j]), float(geom.seg_start[j]),
+                            float(geom.seg_end[j]))
+        ks = np.arange(math.floor(first), math.ceil(end) + 1, dtype=np.float64)
         ok = True
         for k in geom.nbr_idx[geom.nbr_ptr[j]:geom.nbr_ptr[j + 1]]:
             k = int(k)
             bk = geom.base_xy[k]
-            seg_k = segments_at(float(bk[0]), float(bk[1]), np.ascontiguousarray(paths.sample(k, ks)),
-                                 float(geom.alpha_len[k]), float(geom.seg_start[k]),
-                                 float(geom.seg_end[k]))
-            if pair_conflict(held, seg_k, float(geom.buffer[j] + geom.buffer[k]) + md):
+            st_k, an_k = paths.steps[k], paths.angles[k]
+            if held_meets(*held, np.interp(ks, st_k, an_k[:, 0]), np.interp(ks, st_k, an_k[:, 1]),
+                          float(bk[0]), float(bk[1]), float(geom.alpha_len[k]),
+                          float(geom.seg_start[k]), float(geom.seg_end[k]),
+                          float(geom.buffer[j] + geom.buffer[k]) + md):
                 ok = False
                 break
         if ok:
@@ -71,3 +73,34 @@ def trim_tails(geom: ArrayGeometry, paths: PathSet, dest: np.ndarray, skip: np.n
             paths.angles[j] = np.vstack([an[:at[0] + 1], dest[j][None, :]])
             trimmed.append(j)
     return trimmed
+
+
+@njit(cache=True)
+def held_meets(hx0, hy0, hx1, hy1, alpha, beta, bx, by, l_alpha, s0, s1, th):
+    """Does a neighbour come within ``th`` mm of a held beta segment (hx0, hy0)-(hx1, hy1)
+    at one of its configurations (alpha, beta) ((T,) deg each)? The neighbour's base
+    (bx, by) and arm (l_alpha, segment s0..s1) in mm.
+
+    The same answer as testing every configuration with ``segments_within``, which it
+    uses; configurations that cannot reach the held segment are skipped: an end of the
+    neighbour's segment moves by at most (l_alpha + s) |d alpha| + s |d beta| (s = its
+    farther end, rad) from one configuration to the next, so a configuration at distance
+    D leaves the next floor((D - th) / rate) ones farther than th (rate: the largest
+    such move), and the segment distance follows its ends."""
+    n = alpha.shape[0]
+    reach = max(abs(s0), abs(s1))
+    rate = 0.0
+    for k in range(n - 1):
+        move = ((l_alpha + reach) * abs(alpha[k + 1] - alpha[k])
+                + reach * abs(beta[k + 1] - beta[k])) * DEG
+        rate = max(rate, move)
+    k = 0
+    while k < n:
+        x0, y0, x1, y1 = beta_segment(bx, by, alpha[k], beta[k], l_alpha, s0, s1)
+        if segments_within(hx0, hy0, hx1, hy1, x0, y0, x1, y1, th):
+            return True
+        if rate == 0.0:
+            return False               # it stands still: every configuration is this one
+        gap = segment_distance(hx0, hy0, hx1, hy1, x0, y0, x1, y1) - th
+        k += 1 + max(0, int(0.99 * gap / rate))
+    return False

@@ -44,3 +44,32 @@ def test_detours_after_arriving_are_cut_only_where_safe():
     keep_right = np.eye(n, dtype=bool)[right]          # (its own detour is not the point)
     assert trim_tails(geom, busy, fold, keep_right, md) == []
     assert trim_tails(geom, paths_with(None), fold, np.eye(n, dtype=bool)[c], md) == []
+
+
+def test_skipping_far_configurations_gives_the_every_step_answer():
+    """held_meets skips the configurations a bound proves far; over 3,000 random
+    neighbour motions (many grazing the threshold) it answers as testing every step
+    does; the thresholds lie around each motion's closest approach, so both answers
+    come often (and the test fails if the skips are tripled)."""
+    from rfp_twin.models.geometry2d import beta_segment
+    from rfp_twin.planners.resolve_search.kernels import pair_conflict, segments_at
+    from rfp_twin.planners.resolve_search.trim import held_meets
+
+    rng = np.random.default_rng(7)
+    l_alpha, s0, s1 = 7.4, 0.0, 15.0
+    answers = []
+    for case in range(3000):
+        held = beta_segment(0.0, 0.0, *rng.uniform([0, 0], [360, 180]), l_alpha, s0, s1)
+        bx, by = 22.4 * np.cos(rng.uniform(0, 2 * np.pi)), 22.4 * np.sin(rng.uniform(0, 2 * np.pi))
+        knots = np.cumsum(rng.uniform(0.0, 40.0, (4, 2)) * rng.choice([-1, 1], (4, 2)), axis=0)
+        steps = np.concatenate([[0.0], np.sort(rng.uniform(1, 300, 3))])
+        ks = np.arange(0.0, 301.0)
+        alpha = np.interp(ks, steps, knots[:, 0] + rng.uniform(0, 360))
+        beta = np.interp(ks, steps, np.clip(knots[:, 1] + 90.0, 0, 180))
+        seg = segments_at(bx, by, np.column_stack([alpha, beta]), l_alpha, s0, s1)
+        d = min(float(np.hypot(*(0.5 * (seg[:, :2] + seg[:, 2:]) - 0.5 * (np.array(held[:2]) + held[2:])).T).min()), 99.0)
+        th = max(0.1, d * rng.uniform(0.3, 1.0))       # thresholds around the closest approach
+        every = pair_conflict(np.tile(held, (ks.size, 1)), seg, th)
+        assert held_meets(*held, alpha, beta, bx, by, l_alpha, s0, s1, th) == every, case
+        answers.append(every)
+    assert 0.2 < np.mean(answers) < 0.8
