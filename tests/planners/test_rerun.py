@@ -157,9 +157,9 @@ def test_groups_their_patches_leave_get_whole_array_runs_on_small_arrays():
 
 def test_the_whole_array_ladder_makes_at_most_its_own_number_of_attempts():
     first = _fake(100, [12, 13])
-    # every whole-array attempt leaves one robot fewer stuck than the one before it
-    # could (no stale streak), none completes: it stops at WHOLE_ATTEMPTS, the patches
-    # at their own patience
+    # the whole-array attempts leave both robots or one of them stuck in turn: none
+    # completes and no PATIENCE stale ones come in a row before the fifth (the sixth
+    # would end it), so the cap stops it; the patches stop at their own patience
     patches = [(125, [12, 13])] * PATIENCE
     run, calls = _ladder_of(patches, whole=[(125, [12, 13]), (125, [12])] * 8)
     rr = _rerun(first, run, whole=True, seed=0, attempts=8)
