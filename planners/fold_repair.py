@@ -22,14 +22,13 @@ import numpy as np
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.geometry2d import pair_distances
 from rfp_twin.planners.plan import build_paths
-from rfp_twin.planners.rerun import arrival_steps, stuck_mask
+from rfp_twin.planners.rerun import arrival_steps, last_events, stuck_mask
 from rfp_twin.planners.stepwise import StepRun
 
 
 def last_robot(run: StepRun, stuck: np.ndarray) -> int:
     """Index of the robot that reached its destination last in ``run`` (-1: none)."""
-    last = np.full(stuck.size, -1, dtype=np.int64)
-    np.maximum.at(last, run.ev_robot, run.ev_step)
+    last = last_events(run, stuck.size)
     last[stuck] = -1
     return int(np.argmax(last)) if last.max() >= 0 else -1
 

@@ -165,13 +165,18 @@ def stuck_mask(run: StepRun, goal: np.ndarray, movable: np.ndarray) -> np.ndarra
     return movable & ~np.all(np.abs(run.final - goal) < ANGLE_EPS, axis=1)
 
 
+def last_events(run: StepRun, n: int) -> np.ndarray:
+    """(n,) int64: each robot's last breakpoint step in ``run`` (-1: none)."""
+    last = np.full(n, -1, dtype=np.int64)
+    np.maximum.at(last, run.ev_robot, run.ev_step)
+    return last
+
+
 def arrival_steps(run: StepRun, stuck: np.ndarray) -> int:
     """Steps until the last robot that reached its destination in ``run`` got there: the
     run's fold without the stuck robots, which may go on moving now and then until the
     run stops (at most ``run.n_steps``). ``stuck`` (n,) bool."""
-    last = np.full(stuck.size, -1, dtype=np.int64)
-    np.maximum.at(last, run.ev_robot, run.ev_step)
-    arrived = last[~stuck]
+    arrived = last_events(run, stuck.size)[~stuck]
     if arrived.size == 0 or arrived.max() < 0:
         return int(run.n_steps)
     return int(min(run.n_steps, arrived.max() + 1))

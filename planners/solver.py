@@ -26,7 +26,7 @@ resolvers (``PlannerSettings.resolve``):
 Metrics follow the paper: efficiency (Eq. 11, replaced robots counted once; robots
 kept by the search are not replaced), convergence of the first run, tau_pg (wall time of
 the first planner run: every kernel call of it, those repeated after a breakpoint-buffer
-overflow included; ``pg_retries`` counts such repeats over all runs, none below
+overflow and the fold-repair runs included; ``pg_retries`` counts such repeats over all runs, none below
 :data:`rfp_twin.planners.stepwise.run.MAX_EVENTS`), tau_sr (all runs), ``planning_s``
 (the whole call: runs, re-runs, searches, continuation, replacements, paths), fold time
 (steps x step duration); and the resolution: ``n_rerun_groups`` / ``n_rerun_robots``
@@ -37,7 +37,9 @@ final plan resolves by search), ``n_search_replanned`` (robots whose paths the s
 changed, recruited neighbours included), ``n_search_failed_groups`` (over all rounds),
 ``n_replace_groups`` (groups resolved by replacing a target), ``search_s`` (wall time of
 the searches), ``n_continued_groups`` / ``n_continued_robots`` (groups the final plan
-resolves by continuation), ``continuation_s``.
+resolves by continuation), ``continuation_s``, ``n_local_groups`` (groups with a
+replaced target that the search resolved in place, without a new round),
+``n_fold_repair_runs`` (whole runs made by :mod:`rfp_twin.planners.fold_repair`).
 
 Units: angles in deg, lengths in mm, plan time in planner steps (``step_s`` s each).
 """

@@ -36,36 +36,6 @@ def segments_at(base_x, base_y, ang, l_alpha, s0, s1):
     return out
 
 
-@njit(cache=True)
-def first_blocker(a, b, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th):
-    """The first moving obstacle that configuration (a, b) deg at step t meets, or -1.
-
-    Tables as :func:`moving_collisions`; t is clamped to the table. Two base disks
-    farther apart than the threshold are skipped before the exact test."""
-    x0, y0, x1, y1 = beta_segment(bx, by, a, b, l_alpha, s0, s1)
-    rho = math.sqrt(max((x0 - bx) ** 2 + (y0 - by) ** 2, (x1 - bx) ** 2 + (y1 - by) ** 2))
-    return segment_blocker(x0, y0, x1, y1, rho, t, obs_seg, obs_rho, obs_d, obs_th)
-
-
-@njit(cache=True)
-def segment_blocker(x0, y0, x1, y1, rho, t, obs_seg, obs_rho, obs_d, obs_th):
-    """:func:`first_blocker` of a beta segment already placed: (x0, y0, x1, y1) mm, rho
-    its farthest point from the robot's base, mm."""
-    n_t = obs_seg.shape[0]
-    k = int(round(t))
-    if k < 0:
-        k = 0
-    elif k >= n_t:
-        k = n_t - 1
-    for o in range(obs_seg.shape[1]):
-        if obs_d[o] - rho - obs_rho[k, o] > obs_th[o]:
-            continue
-        if segments_within(x0, y0, x1, y1, obs_seg[k, o, 0], obs_seg[k, o, 1],
-                           obs_seg[k, o, 2], obs_seg[k, o, 3], obs_th[o]):
-            return o
-    return -1
-
-
 #: Steps per block of :func:`block_discs`.
 DISC_BLOCK = 16
 
@@ -105,8 +75,11 @@ def block_discs(obs_seg):
 
 @njit(cache=True)
 def listed_blocker(x0, y0, x1, y1, rho, t, obs_seg, obs_rho, obs_d, obs_th, listed, n_listed):
-    """:func:`segment_blocker` over the obstacles ``listed[:n_listed]`` (increasing)
-    only, the others known to be clear."""
+    """The first of the moving obstacles ``listed[:n_listed]`` (increasing; the others
+    known to be clear) that a beta segment (x0, y0, x1, y1) mm, rho its farthest point
+    from the robot's base, meets at step t, or -1. Tables as :func:`moving_collisions`; t
+    is clamped to the table. Two base disks farther apart than the threshold are skipped
+    before the exact test."""
     n_t = obs_seg.shape[0]
     k = int(round(t))
     if k < 0:
@@ -135,9 +108,12 @@ def moving_collisions(q, t, bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, ob
     out : (m,) bool, written
     hits : (n_obs,) int64, incremented for the first obstacle each colliding query meets
     """
+    everyone = np.arange(obs_seg.shape[1])
     for r in range(q.shape[0]):
-        o = first_blocker(q[r, 0], q[r, 1], t[r], bx, by, l_alpha, s0, s1, obs_seg, obs_rho,
-                          obs_d, obs_th)
+        x0, y0, x1, y1 = beta_segment(bx, by, q[r, 0], q[r, 1], l_alpha, s0, s1)
+        rho = math.sqrt(max((x0 - bx) ** 2 + (y0 - by) ** 2, (x1 - bx) ** 2 + (y1 - by) ** 2))
+        o = listed_blocker(x0, y0, x1, y1, rho, t[r], obs_seg, obs_rho, obs_d, obs_th,
+                           everyone, everyone.size)
         if o >= 0:
             hits[o] += 1
         out[r] = o >= 0
@@ -200,8 +176,8 @@ def _near_obstacles(d, t_lo, t_hi, n_t, obs_blk, obs_th, listed):
 def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
                  bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, obs_blk, hits):
     """The layer loop of :class:`rfp_twin.planners.roadmap.sweep._PathSweep` compiled, with
-    :func:`first_blocker` as its black box: the same reachable sets, trajectory and node
-    count as the Python loop, with fewer checks.
+    the moving-obstacle test of :func:`moving_collisions` as its black box: the same
+    reachable sets, trajectory and node count as the Python loop, with fewer checks.
 
     Q (P + 1, 2), D (P, 2) deg: positions along the path and forward steps; frac (K,)
     sub-check offsets; k_static, k_max: time indices (-1: none); t0, dt: time of layer 0
