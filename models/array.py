@@ -82,7 +82,7 @@ class ArrayGeometry:
     @property
     def seg_end(self) -> np.ndarray:
         """(n,) float64 end of each robot's beta collision segment, mm (the spec's end at
-        its own buffer, shifted by its metrology fiber's offset; see
+        its own buffer, extended by its metrology fiber's offset; see
         :func:`rfp_twin.models.layout.columns.robot_collision_arrays`)."""
         return self._robot_arrays[2]
 

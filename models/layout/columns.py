@@ -49,8 +49,9 @@ FIBER_COLUMNS = {"metrology": ("met_x_mm", "met_y_mm"), "boss": ("boss_x_mm", "b
                  "apogee": ("apogee_x_mm", "apogee_y_mm")}
 
 #: Nominal metrology fiber x of the SDSS-V beta arm, mm (coordio defaults). A robot whose
-#: ``met_x_mm`` differs has its beta collision segment shifted along its arm by the
-#: difference: the head that carries the fibers sits where its fibers were measured.
+#: ``met_x_mm`` differs has its beta collision segment extended along its arm by the
+#: difference (:func:`robot_collision_arrays`): the head that carries the fibers may sit
+#: where its fibers were measured, and the segment still covers the spec's.
 NOMINAL_MET_X_MM = 14.314
 
 #: Column -> allowed closed range of its values.
@@ -139,7 +140,7 @@ def robot_fibers(layout, nominal: dict[str, tuple[float, float]]) -> np.ndarray:
 
 
 def segment_shift(layout) -> np.ndarray:
-    """(n_robots,) float64 shift of each beta collision segment along its arm, mm:
+    """(n_robots,) float64 offset of each robot's fiber head along its beta arm, mm:
     ``met_x_mm - NOMINAL_MET_X_MM`` where the layout has a metrology column, else 0."""
     if "met_x_mm" not in layout.extra:
         return np.zeros(layout.n_robots)
@@ -165,15 +166,24 @@ def robot_collision_arrays(spec, layout, buffer_mm: float):
 
     Returns ``(alpha_len, seg_start, seg_end, buffer)``, four (n_robots,) float64 arrays
     in mm: alpha axis to beta axis, the beta collision segment's start and end along the
-    beta arm (the spec's, at that robot's buffer, shifted by :func:`segment_shift`), and
-    the buffer (:func:`robot_buffers`).
+    beta arm, and the buffer (:func:`robot_buffers`).
+
+    The segment is the union of the spec's segment ``[segment_start_mm,
+    segment_end(buffer)]`` and that segment moved along the arm by the robot's
+    :func:`segment_shift` (its fibers measured farther out or in than nominal). It thus
+    always contains the spec's segment, the body SDSS-V's production planner gives every
+    robot whatever its fibers (``sdss-v-production``: from the beta axis to
+    ``16.2 - (sqrt(cb^2 + 0.3^2) - 0.55)`` mm), and is longer than it by ``|shift|``
+    (by ``max(shift, 0)`` when the spec's segment starts at the beta axis, as
+    production's does): stricter than production, never looser.
     """
     buffer = robot_buffers(spec, layout, buffer_mm)
     alpha_len = robot_column(layout, "alpha_len_mm", spec.alpha_length_mm)
     shift = segment_shift(layout)
-    seg_start = np.maximum(spec.segment_start_mm + shift, 0.0)
+    start = float(spec.segment_start_mm)
+    seg_start = np.maximum(np.minimum(start, start + shift), 0.0)
     ends = np.array([spec.segment_end(b) for b in buffer], dtype=np.float64).reshape(-1)
-    seg_end = np.maximum(ends + shift, seg_start)
+    seg_end = np.maximum(np.maximum(ends, ends + shift), seg_start)
     if "kz" in layout.extra:
         # a tilted robot's arm, projected on the plane, is shorter by up to L (1 - kz): the
         # planar model is then off by at most that much; the buffer covers it

@@ -142,8 +142,8 @@ def reached(run) -> bool:
     ("alpha_len_mm", ["11.0", ""], lambda g: g.alpha_len[0] == 11.0),
     # robot 1's buffer 5.5 mm: 7.4 mm is less than 2 + 5.5 (+ MD)
     ("buffer_add_mm", ["", "3.5"], lambda g: g.buffer[1] == 5.5),
-    # robot 0's fibers 4 mm farther out: its segment runs 4..19 mm, the tip 3.4 mm away
-    ("met_x_mm", ["18.314", ""], lambda g: g.seg_start[0] > 3.99 and g.seg_end[0] > 18.99),
+    # robot 0's fibers 4 mm farther out: its segment runs 0..19 mm, the tip 3.4 mm away
+    ("met_x_mm", ["18.314", ""], lambda g: g.seg_start[0] == 0.0 and g.seg_end[0] > 18.99),
 ], ids=["alpha_len", "buffer_add", "segment_shift"])
 def test_per_robot_value_blocks_a_move_the_nominal_robot_makes(column, values, check,
                                                                greed, phobia):
@@ -163,16 +163,19 @@ def test_per_robot_value_blocks_a_move_the_nominal_robot_makes(column, values, c
 
 
 @pytest.mark.parametrize("greed, phobia", MODES)
-def test_segment_start_of_the_robot_is_used(greed, phobia):
+def test_shifted_fibers_keep_the_segment_from_the_beta_axis(greed, phobia):
     """An obstacle beside robot 0's elbow (6, -3) blocks the nominal segment (0..15 mm
-    from the elbow) but not one shifted 4 mm out along the arm (4..19 mm)."""
+    from the elbow). Fibers measured 4 mm farther out extend the segment to 0..19 mm;
+    they do not move its start off the elbow (the production planner keeps every robot's
+    segment from its beta axis), so the obstacle blocks the shifted robot as well."""
     nominal = one_robot_and("fiducial", (6.0, -3.0))
     shifted = one_robot_and("fiducial", (6.0, -3.0), {"met_x_mm": ["18.314", ""]})
+    assert shifted.seg_start[0] == 0.0 and shifted.seg_end[0] == pytest.approx(19.0)
     md = array_max_displacement(shifted, STEP)
     nom_run, start, _ = reach_out(nominal, greed, phobia, md)
     run, _, _ = reach_out(shifted, greed, phobia, md)
-    assert not reached(nom_run) and reached(run)
-    assert worst_clearance(shifted, nom_run.final) > md      # the shifted robot is clear there
+    assert not reached(nom_run) and not reached(run)
+    assert worst_clearance(shifted, REACH_OUT[None]) < 0.0
     check_plan_clear(nominal, nom_run, start, md)
     check_plan_clear(shifted, run, start, md)
 
