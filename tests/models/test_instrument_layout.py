@@ -30,9 +30,12 @@ def test_apo_layout_carries_each_robots_calibration():
     geom = ArrayGeometry(load_spec("sdss-v-production"), lay, 2.0)
     assert not geom.uniform
     np.testing.assert_array_equal(geom.alpha_len, cal.alpha_len)
-    # the segment follows the measured fiber head: shifted by metX - 14.314
-    np.testing.assert_allclose(geom.seg_end - geom.seg_end.mean(),
-                               cal.fibers[:, 0, 0] - cal.fibers[:, 0, 0].mean(), atol=1e-12)
+    # the segment runs from the beta axis (production's start) and its far end follows
+    # the measured fiber head when it sits out: production's end + max(metX - 14.314, 0)
+    np.testing.assert_array_equal(geom.seg_start, 0.0)
+    end = load_spec("sdss-v-production").segment_end(2.0)
+    np.testing.assert_allclose(geom.seg_end, end + np.maximum(cal.fibers[:, 0, 0] - 14.314, 0.0),
+                               atol=1e-12)
     fibers = robot_fibers(lay, {})
     np.testing.assert_array_equal(fibers, cal.fibers, strict=False)
     # production obstacles: 60 fiducial points and 6 GFA segments, 3 mm keep-out each
