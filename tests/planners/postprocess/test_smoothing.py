@@ -1,4 +1,4 @@
-"""Smoothing of stepwise plans (planners/smoothing.py): exact running average, ends kept."""
+"""Smoothing of stepwise plans (planners/postprocess/smoothing.py): exact running average, ends kept."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,7 +6,7 @@ import pytest
 
 from rfp_twin.models.errors import SpecError
 from rfp_twin.models.robot import load_spec
-from rfp_twin.planners.smoothing import plan_deviation, smooth_plan, window_for_limits
+from rfp_twin.planners.postprocess.smoothing import plan_deviation, smooth_plan, window_for_limits
 from tests.planners.conftest import make_geom, plan_random
 from tests.planners.path_builders import CORNER, make_plan
 

@@ -16,8 +16,8 @@ from rfp_twin.models.robot import load_spec
 from rfp_twin.planners.plan import Plan
 from rfp_twin.planners.postprocess import postprocess
 from rfp_twin.planners.postprocess.pipeline import WIGGLE_REVERSALS
-from rfp_twin.planners.simplify import direction_reversals
-from rfp_twin.planners.timing import pl_kinematics
+from rfp_twin.planners.postprocess.simplify import direction_reversals
+from rfp_twin.planners.postprocess.timing import pl_kinematics
 from rfp_twin.models.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random
 from rfp_twin.validation.checker2d import check_trajectory

@@ -1,10 +1,10 @@
-"""Interaction groups (planners/timing/grouping.py): pairs that come close, components."""
+"""Interaction groups (planners/postprocess/timing/grouping.py): pairs that come close, components."""
 from __future__ import annotations
 
 import numpy as np
 
 from rfp_twin.models.geometry2d import pair_distances
-from rfp_twin.planners.timing import interaction_groups, interaction_pairs
+from rfp_twin.planners.postprocess.timing import interaction_groups, interaction_pairs
 from tests.planners.conftest import make_geom, plan_random
 
 

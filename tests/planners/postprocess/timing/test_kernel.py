@@ -1,10 +1,10 @@
-"""The numba TOPP-RA kernel (planners/timing/kernel.py): optimal laws within the constraints."""
+"""The numba TOPP-RA kernel (planners/postprocess/timing/kernel.py): optimal laws within the constraints."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from rfp_twin.planners.timing.kernel import law_excess, topp, topp_kernel
+from rfp_twin.planners.postprocess.timing.kernel import law_excess, topp, topp_kernel
 from tests.planners.path_builders import A, V
 
 

@@ -13,7 +13,7 @@ TOPP-RA (Pham & Pham 2018, the algorithm of the ``toppra`` library) on gridpoint
 forward pass takes the largest admissible ``u`` at every gridpoint.
 
 The gridpoints include every knot of the group's smoothed paths
-(:func:`rfp_twin.planners.timing.group_grid`). With the running-average smoothing ``q''`` is then
+(:func:`rfp_twin.planners.postprocess.timing.group_grid`). With the running-average smoothing ``q''`` is then
 constant on each interval and ``q'`` linear, and the joint acceleration ``q' u + q'' x``
 is *linear* in ``s`` on the interval: constraining it at both ends of the interval (the
 "interpolation" discretisation) bounds it everywhere. The velocity ``|q' sd|`` is
@@ -23,7 +23,7 @@ therefore respects both limits exactly (up to rounding; the callers apply the li
 with a factor ``limit_margin``).
 
 :func:`topp_kernel` solves it (about 0.3 ms per group of an SDSS-V fold),
-:func:`topp` wraps it into a :class:`rfp_twin.planners.timing.TimeLaw`, and :func:`law_excess`
+:func:`topp` wraps it into a :class:`rfp_twin.planners.postprocess.timing.TimeLaw`, and :func:`law_excess`
 measures how far any ``x`` (e.g. the ``toppra`` library's) exceeds the same
 constraints.
 
@@ -38,7 +38,7 @@ import math
 import numpy as np
 from numba import njit
 
-from rfp_twin.planners.timing.law import TimeLaw, law_times
+from rfp_twin.planners.postprocess.timing.law import TimeLaw, law_times
 
 __all__ = ["SD_CAP", "QD_EPS", "topp_kernel", "topp", "law_excess"]
 

@@ -1,6 +1,6 @@
 """Time-optimal parametrisation of smoothed plans under per-axis limits (TOPP-RA).
 
-Given smoothed paths ``q_i(s)`` (:mod:`rfp_twin.planners.smoothing`, ``s`` in plan steps) this
+Given smoothed paths ``q_i(s)`` (:mod:`rfp_twin.planners.postprocess.smoothing`, ``s`` in plan steps) this
 package chooses the path parameter as a function of time, ``s(t)``, as fast as every
 axis' velocity and acceleration limits allow, from rest to rest, per group of robots
 that share one ``s(t)``. One job per module:
@@ -16,13 +16,13 @@ that share one ``s(t)``. One job per module:
 
 Units: degrees, seconds, plan steps.
 """
-from rfp_twin.planners.timing.backends import BACKENDS, DEFAULT_BACKEND
-from rfp_twin.planners.timing.grid import STRAIGHT_STEPS, group_grid
-from rfp_twin.planners.timing.group import TOPPRA_MAX_ROBOTS, time_group
-from rfp_twin.planners.timing.grouping import interaction_groups, interaction_pairs
-from rfp_twin.planners.timing.kernel import SD_CAP, law_excess, topp, topp_kernel
-from rfp_twin.planners.timing.kinematics import pl_kinematics
-from rfp_twin.planners.timing.law import TimeLaw
+from rfp_twin.planners.postprocess.timing.backends import BACKENDS, DEFAULT_BACKEND
+from rfp_twin.planners.postprocess.timing.grid import STRAIGHT_STEPS, group_grid
+from rfp_twin.planners.postprocess.timing.group import TOPPRA_MAX_ROBOTS, time_group
+from rfp_twin.planners.postprocess.timing.grouping import interaction_groups, interaction_pairs
+from rfp_twin.planners.postprocess.timing.kernel import SD_CAP, law_excess, topp, topp_kernel
+from rfp_twin.planners.postprocess.timing.kinematics import pl_kinematics
+from rfp_twin.planners.postprocess.timing.law import TimeLaw
 
 __all__ = [
     "BACKENDS",

@@ -2,7 +2,7 @@
 
 Every knot of the group's smoothed paths is a gridpoint, so ``q''`` is constant between
 gridpoints and the kernel's interval constraints are exact
-(:mod:`rfp_twin.planners.timing.kernel`). Intervals where a joint curves are cut at
+(:mod:`rfp_twin.planners.postprocess.timing.kernel`). Intervals where a joint curves are cut at
 ``grid_steps`` (4 plan steps by default). Straight intervals, where every joint moves
 linearly, are cut coarsely: fine only in the *ramp zones* near their ends, where the
 time-optimal law can accelerate or brake, and at :data:`STRAIGHT_STEPS` in between
@@ -18,8 +18,8 @@ import math
 import numpy as np
 from numba import njit
 
-from rfp_twin.planners.smoothing import SmoothPath, eval_robot
-from rfp_twin.planners.timing.kernel import QD_EPS
+from rfp_twin.planners.postprocess.smoothing import SmoothPath, eval_robot
+from rfp_twin.planners.postprocess.timing.kernel import QD_EPS
 
 __all__ = ["STRAIGHT_STEPS", "group_grid", "knot_grid"]
 
@@ -48,12 +48,8 @@ def group_grid(path: SmoothPath, robots: np.ndarray, grid_steps: float,
     parts no longer than ``clip(D / 16, grid_steps, straight_steps)``, the cruise
     between them into parts no longer than ``straight_steps`` [default
     :data:`STRAIGHT_STEPS`]; an interval where no joint moves into parts no longer than
-    ``straight_steps``. Measured on the 500-robot SDSS-V layout (preset ``sdss-v``,
-    step 0.1 deg, window 200 steps, seeds 0 and 1): 2.8-2.9x fewer gridpoints than
-    ``grid_steps`` everywhere (137k and 146k instead of 403k), the same longest group
-    duration, at most +0.03 % on any group; on the test suite's corner plan
-    (``CORNER``, windows 10 / 60 / 200 steps) at most +0.03 %. A flat 128-step cut
-    of straight intervals (no ramp zones) cost up to 1.5 % of the fold time.
+    ``straight_steps``. That keeps the ramps' corners on a fine grid (a law within a
+    few 1e-4 of the fine grid's duration) with a few times fewer gridpoints.
 
     Parameters
     ----------

@@ -9,7 +9,7 @@ import rfp_twin.planners.postprocess.pipeline as pipeline
 from rfp_twin.planners.postprocess import postprocess
 from rfp_twin.planners.postprocess.groups import time_and_simplify
 from rfp_twin.planners.postprocess.singles import time_singles
-from rfp_twin.planners.smoothing import smooth_plan
+from rfp_twin.planners.postprocess.smoothing import smooth_plan
 from rfp_twin.validation.checker2d import check_trajectory
 from tests.planners.conftest import make_geom, plan_random
 

@@ -3,8 +3,7 @@
 The post-processing (:mod:`rfp_twin.planners.postprocess`) narrows the smoothing window
 where the smoothed path of a robot comes too close to a neighbour. Narrowing it for the
 whole path would sharpen every corner of that robot, and the time-optimal law then
-slows down all along it (measured: a searched group of the 500-robot SDSS-V demo went
-from 13.1 s to 19.6 s that way). Here the window is narrowed only on stretches of the
+slows down all along it. Here the window is narrowed only on stretches of the
 plan (:class:`WindowRegions`), and the result stays an exact piecewise quadratic, C1,
 with the plan's exact ends:
 
@@ -14,7 +13,7 @@ stretches ``R_k`` (nested, ``R_1 ⊇ R_2 ⊇ ...``). Let ``A_k`` be the plan wit
 stretch of ``R_{k+1}`` replaced by its chord (``A_K`` is the plan). The plan is the
 sum ``A_0 + sum_k (A_k - A_{k-1})`` of piecewise-linear components, the ``k``-th zero
 outside ``R_k``; each is box-filtered with its own window
-(:func:`rfp_twin.planners.smoothing.smooth_plan`'s kernel) and the sum is the smoothed
+(:func:`rfp_twin.planners.postprocess.smoothing.smooth_plan`'s kernel) and the sum is the smoothed
 path. At a step deeper than ``w_{k-1} / 2`` inside a stretch of ``R_k``, every
 component but the ``k``-th is linear over its window, so it is kept exactly, and the
 path deviates from the plan only as the ``w_k`` average does.
@@ -26,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from rfp_twin.planners.plan import Plan
-from rfp_twin.planners.smoothing import SmoothPath, _average_all, smooth_plan
+from rfp_twin.planners.postprocess.smoothing import SmoothPath, average_all, smooth_plan
 
 __all__ = ["WindowRegions", "smooth_plan_local"]
 
@@ -199,7 +198,7 @@ def smooth_plan_local(plan: Plan, window_steps: np.ndarray, regions: WindowRegio
             comp_w.append(float(window_steps[i]) / regions.factor ** k)
             owner.append(i)
     ptr_in = np.concatenate([[0], np.cumsum([c.size for c in comp_b])]).astype(np.int64)
-    ptr, knots, coef = _average_all(ptr_in, np.ascontiguousarray(np.concatenate(comp_b)),
+    ptr, knots, coef = average_all(ptr_in, np.ascontiguousarray(np.concatenate(comp_b)),
                                     np.ascontiguousarray(np.concatenate(comp_y)),
                                     np.asarray(comp_w), s_end)
     summed: dict[int, list] = {}

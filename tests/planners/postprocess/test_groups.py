@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from rfp_twin.planners.postprocess.groups import assemble, group_offsets, time_and_simplify
-from rfp_twin.planners.simplify import max_deviation
-from rfp_twin.planners.smoothing import smooth_plan
-from rfp_twin.planners.timing import pl_kinematics
+from rfp_twin.planners.postprocess.simplify import max_deviation
+from rfp_twin.planners.postprocess.smoothing import smooth_plan
+from rfp_twin.planners.postprocess.timing import pl_kinematics
 from tests.planners.path_builders import A, CORNER, V, make_plan
 
 

@@ -1,13 +1,13 @@
-"""Ramer-Douglas-Peucker on (time, angle) axes (planners/simplify.py)."""
+"""Ramer-Douglas-Peucker on (time, angle) axes (planners/postprocess/simplify.py)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from rfp_twin.models.errors import SpecError
-from rfp_twin.planners.simplify import (max_deviation, rdp_mask, simplify_axis, simplify_columns,
+from rfp_twin.planners.postprocess.simplify import (max_deviation, rdp_mask, simplify_axis, simplify_columns,
                                simplify_plan)
-from rfp_twin.planners.timing import pl_kinematics
+from rfp_twin.planners.postprocess.timing import pl_kinematics
 from tests.planners.conftest import make_geom, plan_random
 from tests.planners.path_builders import make_plan
 
@@ -159,7 +159,7 @@ def test_each_chord_rounding_is_kept_at_exact_ties():
 
 
 def test_direction_reversals_count_turns_per_robot_and_axis():
-    from rfp_twin.planners.simplify import direction_reversals
+    from rfp_twin.planners.postprocess.simplify import direction_reversals
 
     # robot 0: alpha up, wait, down (1 turn), beta steady; robot 1: beta zig-zag (3 turns);
     # robot 2: a single breakpoint; robot 3: alpha up then, after robot boundaries, nothing

@@ -5,7 +5,7 @@ paths are piecewise linear in the step index with a corner at every change of
 direction: infinite acceleration at any finite speed, and the "wiggles" of robots that
 meet (the paper's words). Here each robot's path becomes a smooth function
 ``q_i(s)`` of one path parameter ``s`` (plan steps), on a domain shared by all robots.
-Time does not appear: :mod:`rfp_twin.planners.timing` chooses ``s(t)`` afterwards, jointly for
+Time does not appear: :mod:`rfp_twin.planners.postprocess.timing` chooses ``s(t)`` afterwards, jointly for
 robots that interact, so their relative configuration at each ``s`` stays the smoothed
 plan's.
 
@@ -28,11 +28,9 @@ exactly (no sampling) from the plan's breakpoints.
 steps, fitted to the plan at every integer step, with value and zero slope pinned at
 both ends. C2, but it rings around corners (Gibbs), creeps during holds, and its second
 derivative is not piecewise constant, so the time law's constraints are exact only on
-a fine grid. Kept for comparison. Measured on the 500-robot SDSS-V layout (step 0.1
-deg, 2.0 mm, same initial window, ``benchmarks/bench_postprocess.py``, RESULTS.md):
-post-processing 2.3 s vs 1.3 s (one least-squares solve per distinct window after
-tightening), fold 15.9 s vs 14.9 s, 27 vs 18 points per axis (median). Hence the
-running average is the default: exact, about 1 ms for 500 robots, and faster folds.
+a fine grid. Kept for comparison; the running average is the default: exact, cheap
+(one pass over the breakpoints), and its folds are shorter with fewer points per axis
+(``benchmarks/bench_postprocess.py``).
 
 Both give a :class:`SmoothPath`: per robot a piecewise cubic (CSR arrays) on the shared
 domain ``[0, s_end]``, ``s = plan step + pad_steps`` with ``pad_steps`` half the widest
@@ -169,7 +167,7 @@ def smooth_plan(plan: Plan, *, method: str = "average",
     angles = np.ascontiguousarray(plan.path_angles, dtype=np.float64)
     ptr_in = np.ascontiguousarray(plan.path_ptr, dtype=np.int64)
     if method == "average":
-        ptr, knots, coef = _average_all(ptr_in, steps, angles, w, s_end)
+        ptr, knots, coef = average_all(ptr_in, steps, angles, w, s_end)
     else:
         ptr, knots, coef = _spline_all(plan, w, pad, s_end)
     return SmoothPath(np.asarray(plan.robot_ids, dtype=np.int64).copy(), method, w, pad, s_end,
@@ -415,7 +413,11 @@ def _average_kernel(ptr_in, steps, angles, w, s_end, ptr, knots, coef):
     return pos
 
 
-def _average_all(ptr_in, steps, angles, w, s_end):
+def average_all(ptr_in, steps, angles, w, s_end):
+    """Running-average smoothing of CSR piecewise-linear paths (``ptr_in`` (n + 1,),
+    ``steps`` (m,) plan steps, ``angles`` (m, 2) deg), robot i with window ``w[i]`` steps,
+    on the domain ``[0, s_end]``: the CSR piecewise quadratics ``(ptr, knots, coef)`` of a
+    :class:`SmoothPath`."""
     n = ptr_in.size - 1
     cap = 2 * steps.size + 2 * n + 2
     ptr = np.zeros(n + 1, dtype=np.int64)

@@ -6,7 +6,7 @@ gridpoints, the constant ``q''`` of every interval, the per-joint limits) to the
 computes the controllable sets and the forward pass. The constraints are two
 :class:`toppra.constraint.LinearConstraint` subclasses over precomputed arrays, so the
 library solves *the same* discretised problem as the numba kernel
-(:func:`rfp_twin.planners.timing.kernel.topp_kernel`):
+(:func:`rfp_twin.planners.postprocess.timing.kernel.topp_kernel`):
 
 - :class:`IntervalVelocityBounds`: ``x_i <= v_k^2 / max(q'_k^2)`` over gridpoints
   ``i - 1, i, i + 1`` (the kernel's bound, which holds between gridpoints), and
@@ -46,7 +46,7 @@ coefficients), not where the problem is infeasible. Fixes here:
    curvature where ``q''`` jumps at a knot, which under-constrains the interval).
 
 With these the library and the kernel agree on every group to 2e-5 of the duration
-(tests/planners/test_timing_backends.py, benchmarks/RESULTS.md). The seidel solver is the only
+(tests/planners/postprocess/timing/test_backends.py, benchmarks/RESULTS.md). The seidel solver is the only
 one the installed wheel can use (the qpOASES, cvxpy and ECOS wrappers need packages
 that are not installed).
 
@@ -55,9 +55,9 @@ controllable set: from rest to rest with ``x >= 0`` that end is 0 (``x = u = 0``
 admissible at every stage), which the LP returns anyway, and trims the library's
 per-stage input checks of the forward pass: 35 % less time, the same laws.
 
-:func:`solve_law` is the backend's entry point (:mod:`rfp_twin.planners.timing.backends`): it
+:func:`solve_law` is the backend's entry point (:mod:`rfp_twin.planners.postprocess.timing.backends`): it
 checks the library's ``x`` against the discretised constraints
-(:func:`rfp_twin.planners.timing.kernel.law_excess`) and turns it into a time law.
+(:func:`rfp_twin.planners.postprocess.timing.kernel.law_excess`) and turns it into a time law.
 
 Units: degrees, seconds, plan steps.
 """
@@ -71,9 +71,9 @@ import toppra.algorithm as algo
 from toppra.constraint import DiscretizationType, LinearConstraint
 from toppra.interpolator import AbstractGeometricPath
 
-from rfp_twin.planners.timing.backends import TimingProblem
-from rfp_twin.planners.timing.kernel import law_excess
-from rfp_twin.planners.timing.law import TimeLaw, law_times
+from rfp_twin.planners.postprocess.timing.backends import TimingProblem
+from rfp_twin.planners.postprocess.timing.kernel import law_excess
+from rfp_twin.planners.postprocess.timing.law import TimeLaw, law_times
 
 __all__ = ["SEIDEL_SD_MAX", "TOPPRA_TOLERANCE", "GridPath", "IntervalVelocityBounds",
            "IntervalAccelerationRows", "RestToRestTOPPRA", "velocity_bounds", "solve",
@@ -278,7 +278,7 @@ def solve_law(problem: TimingProblem) -> TimeLaw | None:
 
     The library's forward pass lowers each ``x`` by up to 0.01 % against rounding, so
     its law can exceed the discretised constraints by a hair where the next ``x`` is
-    bound by the acceleration limit; :func:`rfp_twin.planners.timing.kernel.law_excess` measures
+    bound by the acceleration limit; :func:`rfp_twin.planners.postprocess.timing.kernel.law_excess` measures
     that, and a law off by at most :data:`TOPPRA_TOLERANCE` is slowed down uniformly by
     the excess (a worse one counts as no solution).
     """

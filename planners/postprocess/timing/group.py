@@ -1,11 +1,11 @@
 """Timing one group: its grid, its path derivatives, its backend (:func:`time_group`).
 
 A group of ``k`` robots is one path with ``2k`` joints (alpha, beta of each robot), timed
-by one shared ``s(t)`` (:mod:`rfp_twin.planners.timing.grouping` says which robots share one).
-:func:`time_group` builds the group's grid (:func:`rfp_twin.planners.timing.grid.group_grid`),
+by one shared ``s(t)`` (:mod:`rfp_twin.planners.postprocess.timing.grouping` says which robots share one).
+:func:`time_group` builds the group's grid (:func:`rfp_twin.planners.postprocess.timing.grid.group_grid`),
 evaluates ``q'`` at the gridpoints and the constant ``q''`` of each interval, and hands
 the discretised problem to the backend chosen by name
-(:mod:`rfp_twin.planners.timing.backends`); with ``"toppra"``, groups larger than
+(:mod:`rfp_twin.planners.postprocess.timing.backends`); with ``"toppra"``, groups larger than
 :data:`TOPPRA_MAX_ROBOTS` and groups the library finds no solution for are timed by the
 numba kernel.
 
@@ -18,12 +18,12 @@ from dataclasses import replace
 import numpy as np
 
 from rfp_twin.models.errors import PlanningError, SpecError, field_error
-from rfp_twin.planners.smoothing import SmoothPath
-from rfp_twin.planners.timing.backends import DEFAULT_BACKEND, TimingProblem, get_backend
-from rfp_twin.planners.timing.backends import numba_kernel
-from rfp_twin.planners.timing.grid import group_grid
-from rfp_twin.planners.timing.kernel import SD_CAP
-from rfp_twin.planners.timing.law import TimeLaw
+from rfp_twin.planners.postprocess.smoothing import SmoothPath
+from rfp_twin.planners.postprocess.timing.backends import DEFAULT_BACKEND, TimingProblem, get_backend
+from rfp_twin.planners.postprocess.timing.backends import numba_kernel
+from rfp_twin.planners.postprocess.timing.grid import group_grid
+from rfp_twin.planners.postprocess.timing.kernel import SD_CAP
+from rfp_twin.planners.postprocess.timing.law import TimeLaw
 
 __all__ = ["LIMIT_MARGIN", "TOPPRA_MAX_ROBOTS", "time_group"]
 
@@ -50,15 +50,15 @@ def time_group(path: SmoothPath, robots, max_speed, max_accel, *, grid_steps: fl
     robots : (k,) robot indices of the group
     max_speed, max_accel : (2,) per-axis limits (alpha, beta), deg/s and deg/s^2
     grid_steps : longest interval between gridpoints where a joint curves, plan steps
-    backend : one of :data:`rfp_twin.planners.timing.BACKENDS`: "toppra" (the library) or
+    backend : one of :data:`rfp_twin.planners.postprocess.timing.BACKENDS`: "toppra" (the library) or
         "numba" (the kernel); both solve the same discretised problem on the same grid
     limit_margin : the limits are applied times this factor (rounding head-room)
     moving_range : ``path.moving_range()``, if already computed (saves time per group)
-    span : see :func:`rfp_twin.planners.timing.grid.group_grid`
+    span : see :func:`rfp_twin.planners.postprocess.timing.grid.group_grid`
     sd_cap : upper bound on ds/dt where no joint moves, steps/s
     straight_steps : longest interval of a cruise where every joint moves linearly
-        [default :data:`rfp_twin.planners.timing.grid.STRAIGHT_STEPS`] (see
-        :func:`rfp_twin.planners.timing.grid.group_grid`)
+        [default :data:`rfp_twin.planners.postprocess.timing.grid.STRAIGHT_STEPS`] (see
+        :func:`rfp_twin.planners.postprocess.timing.grid.group_grid`)
     fallback : with ``backend="toppra"``, time the group with the kernel when the
         library finds no solution (the law's ``solver`` is then "fallback"); False
         raises :class:`rfp_twin.models.errors.PlanningError` instead
@@ -105,7 +105,7 @@ def time_group(path: SmoothPath, robots, max_speed, max_accel, *, grid_steps: fl
 #: Rounds of grid refinement around a law's stops where the path moves.
 _MAX_REFINE = 8
 #: ds/dt (plan steps/s) below which both ends of an interval count as crawling.
-_CRAWL_SD = 1.0
+CRAWL_SD = 1.0
 
 
 def _stopped_inside(law: TimeLaw, path: SmoothPath, robots: np.ndarray,
@@ -116,14 +116,14 @@ def _stopped_inside(law: TimeLaw, path: SmoothPath, robots: np.ndarray,
     gridpoint to the top of its controllable set from which the only admissible next
     value is ``x = 0``; when the gridpoint after that must also be at rest (the end),
     the interval between them is crossed at (nearly) zero speed: in infinite time with
-    the kernel, 1789 s with the library, where a finer grid takes 0.17 s (measured on
-    a robot of a Markov fold that ends its motion on the last interval). An interval
+    the kernel, minutes with the library, where a finer grid takes a fraction of a
+    second (a robot of a Markov fold that ends its motion on the last interval). An interval
     whose joints move at most ``d`` deg is flagged when it takes more than three times
     ``2 sqrt(d / a)``, the time from rest to rest over it."""
     if law.s.size < 2:
         return np.zeros(0, dtype=np.int64)
     # only intervals crawled at both ends can be such (a real stop has one end at speed)
-    crawl = np.flatnonzero(np.maximum(law.sd[:-1], law.sd[1:]) < _CRAWL_SD)
+    crawl = np.flatnonzero(np.maximum(law.sd[:-1], law.sd[1:]) < CRAWL_SD)
     if crawl.size == 0:
         return crawl
     q0 = path.evaluate(law.s[crawl], robots, 0).reshape(crawl.size, -1)

@@ -1,12 +1,12 @@
-"""Timing backends (planners/timing/backends/): chosen by name, the same laws, the fallback."""
+"""Timing backends (planners/postprocess/timing/backends/): chosen by name, the same laws, the fallback."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from rfp_twin.models.errors import PlanningError, SpecError
-from rfp_twin.planners.timing import BACKENDS, DEFAULT_BACKEND, law_excess, time_group
-from rfp_twin.planners.timing.backends import get_backend
+from rfp_twin.planners.postprocess.timing import BACKENDS, DEFAULT_BACKEND, law_excess, time_group
+from rfp_twin.planners.postprocess.timing.backends import get_backend
 from tests.planners.path_builders import A, V, numeric_kinematics, real_groups
 
 
@@ -48,7 +48,7 @@ def test_toppra_backend_solves_every_group_of_a_real_smoothed_plan():
 
 
 def test_toppra_backend_falls_back_to_the_kernel_only_when_the_library_fails(monkeypatch):
-    from rfp_twin.planners.timing.backends import toppra_library
+    from rfp_twin.planners.postprocess.timing.backends import toppra_library
 
     sp, groups = real_groups()
     robots = max(groups, key=len)

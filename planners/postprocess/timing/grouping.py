@@ -9,7 +9,7 @@ finds every Eq. 4 neighbour pair whose clearance ``D_ij - 2 sigma`` falls below 
 interaction distance at some step of the plan (continuous in the step: it walks the
 plan with strides that the pair cannot close in); those pairs are edges, and
 :func:`interaction_groups` returns the connected components. A group of ``k`` robots is
-one path with ``2k`` joints (:func:`rfp_twin.planners.timing.time_group`).
+one path with ``2k`` joints (:func:`rfp_twin.planners.postprocess.timing.time_group`).
 
 The interaction distance is a heuristic, not a proof: groups timed apart are at
 different ``s`` at the same instant, which the plan never checked. The post-processing

@@ -1,12 +1,12 @@
-"""Local smoothing windows (planners/smoothing_local.py): exact, C1, narrow only where asked."""
+"""Local smoothing windows (planners/postprocess/smoothing_local.py): exact, C1, narrow only where asked."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from rfp_twin.planners.plan import Plan, build_paths
-from rfp_twin.planners.smoothing import smooth_plan
-from rfp_twin.planners.smoothing_local import WindowRegions, smooth_plan_local
+from rfp_twin.planners.postprocess.smoothing import smooth_plan
+from rfp_twin.planners.postprocess.smoothing_local import WindowRegions, smooth_plan_local
 
 W = 40.0
 PAD = 20.0

@@ -11,7 +11,7 @@ import rfp_twin.planners.postprocess.verification as verification
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.postprocess.verification import (narrow_locally, repair,
                                                         subset_trajectory, verify_neighbours)
-from rfp_twin.planners.smoothing_local import WindowRegions
+from rfp_twin.planners.postprocess.smoothing_local import WindowRegions
 from tests.planners.conftest import make_geom
 
 

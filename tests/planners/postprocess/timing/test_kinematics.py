@@ -1,10 +1,10 @@
-"""Piecewise-linear kinematics (planners/timing/kinematics.py): slopes, three-point accelerations."""
+"""Piecewise-linear kinematics (planners/postprocess/timing/kinematics.py): slopes, three-point accelerations."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from rfp_twin.planners.timing import pl_kinematics
+from rfp_twin.planners.postprocess.timing import pl_kinematics
 
 
 def test_pl_kinematics_three_point_definition():

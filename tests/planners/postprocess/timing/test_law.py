@@ -1,12 +1,12 @@
-"""Time laws (planners/timing/law.py): s(t) between and at gridpoints, scaling, static laws."""
+"""Time laws (planners/postprocess/timing/law.py): s(t) between and at gridpoints, scaling, static laws."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from rfp_twin.planners.smoothing import smooth_plan
-from rfp_twin.planners.timing import DEFAULT_BACKEND, TimeLaw, time_group
-from rfp_twin.planners.timing.law import law_times
+from rfp_twin.planners.postprocess.smoothing import smooth_plan
+from rfp_twin.planners.postprocess.timing import DEFAULT_BACKEND, TimeLaw, time_group
+from rfp_twin.planners.postprocess.timing.law import law_times
 from tests.planners.path_builders import A, CORNER, V
 
 

@@ -2,32 +2,22 @@
 
 Every backend is a module of this package with one function, ``solve_law(problem) ->
 TimeLaw | None``, that solves a :class:`TimingProblem` (the constraints of
-:mod:`rfp_twin.planners.timing.kernel` on the group's grid) and returns the time law, or None
+:mod:`rfp_twin.planners.postprocess.timing.kernel` on the group's grid) and returns the time law, or None
 where it finds no solution. All solve the same discretised problem on the same
 gridpoints:
 
 - ``"toppra"`` (:mod:`.toppra_library`): the ``toppra`` 0.6 library, its
   ``TOPPRA`` algorithm and seidel LP solver, given the constraints as precomputed unit
-  rows; it solves every group of every plan measured (~390-460 groups per 500-robot
-  SDSS-V fold, greedy and Markov) with laws equal to the kernel's within 2e-5 of the
-  duration (benchmarks/RESULTS.md, "Timing backends");
-- ``"numba"`` (default, :mod:`.numba_kernel`): the kernel :func:`rfp_twin.planners.timing.kernel.topp_kernel`,
-  about 0.3 ms per group, 10-15x faster than the library for the same laws; it always
-  finds a law, and :func:`rfp_twin.planners.timing.time_group` also uses it for groups the library
-  finds no solution for (``TimeLaw.solver == "fallback"``) and for groups too large for
-  the library (``"numba-large"``).
-
-Cost: the library runs its backward and forward passes in Python, about 10-13 us per
-gridpoint plus a solver set-up that copies the rows element by element. On the
-500-robot SDSS-V benchmark (greedy, 2.0 mm, 5 seeds, pre-simplified plans, 2-core
-machine under load 3.7) the whole post-processing takes 1.8-2.6 s with the library
-(0.56-0.69 s with the kernel), within the 3 s budget; Markov plans take 7-8 s with the
-library against 1.4-1.8 s with the kernel (``backend="numba"``).
-
-The kernel is the default: it gives the library's laws (tests/planners/test_timing_backends.py
-compares them group by group on real plans) without its Python loops and without the
-1.7-2.1 s that importing the library and matplotlib costs a fresh process; the library
-stays as the independent cross-check (``rfp-twin plan --timing-backend toppra``).
+  rows; it gives the kernel's laws (tests/planners/postprocess/timing/test_backends.py
+  compares them group by group on real plans) and stays as the independent cross-check
+  (``rfp-twin plan --timing-backend toppra``);
+- ``"numba"`` (default, :mod:`.numba_kernel`): the kernel
+  :func:`rfp_twin.planners.postprocess.timing.kernel.topp_kernel`, without the library's
+  Python loops (its backward and forward passes run per gridpoint in Python) and without
+  importing the library and matplotlib in a fresh process; it always finds a law, and
+  :func:`rfp_twin.planners.postprocess.timing.time_group` also uses it for groups the
+  library finds no solution for (``TimeLaw.solver == "fallback"``) and for groups too
+  large for the library (``"numba-large"``).
 
 A backend module is imported on first use (:func:`get_backend`): the ``toppra`` library
 and the matplotlib it imports take ~0.3 s.
@@ -43,7 +33,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from rfp_twin.models.errors import SpecError, field_error
-from rfp_twin.planners.timing.law import TimeLaw
+from rfp_twin.planners.postprocess.timing.law import TimeLaw
 
 __all__ = ["BACKENDS", "DEFAULT_BACKEND", "TimingProblem", "get_backend"]
 
@@ -51,7 +41,7 @@ __all__ = ["BACKENDS", "DEFAULT_BACKEND", "TimingProblem", "get_backend"]
 _MODULES = {"toppra": "toppra_library", "numba": "numba_kernel"}
 #: Names of the backends.
 BACKENDS = tuple(_MODULES)
-#: Backend of :func:`rfp_twin.planners.timing.time_group` (and of the post-processing pipeline).
+#: Backend of :func:`rfp_twin.planners.postprocess.timing.time_group` (and of the post-processing pipeline).
 DEFAULT_BACKEND = "numba"
 
 

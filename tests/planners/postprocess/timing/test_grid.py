@@ -1,11 +1,11 @@
-"""Group grids (planners/timing/grid.py): every knot, fine where curved, coarse on cruises."""
+"""Group grids (planners/postprocess/timing/grid.py): every knot, fine where curved, coarse on cruises."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from rfp_twin.planners.smoothing import smooth_plan
-from rfp_twin.planners.timing import STRAIGHT_STEPS, group_grid, time_group
+from rfp_twin.planners.postprocess.smoothing import smooth_plan
+from rfp_twin.planners.postprocess.timing import STRAIGHT_STEPS, group_grid, time_group
 from tests.planners.path_builders import A, CORNER, V, make_plan, real_groups
 
 

@@ -31,7 +31,7 @@ class TimeLaw:
     t : (N+1,) time of each gridpoint, s (t[0] = 0)
     solver : what computed it: "numba" (the kernel), "toppra" (the library), "fallback"
         (the kernel, after the library found no solution), "numba-large" (the kernel, for
-        a group too large for the library, :data:`rfp_twin.planners.timing.TOPPRA_MAX_ROBOTS`) or
+        a group too large for the library, :data:`rfp_twin.planners.postprocess.timing.TOPPRA_MAX_ROBOTS`) or
         "static" (nothing moves)
     """
 
@@ -49,7 +49,7 @@ class TimeLaw:
         """Path parameter at the given times (held outside [0, duration])."""
         times = np.ascontiguousarray(np.atleast_1d(np.asarray(times, dtype=np.float64)))
         out = np.empty(times.size)
-        _s_at(self.s, self.sd, self.sdd, self.t, times, out)
+        s_at_times(self.s, self.sd, self.sdd, self.t, times, out)
         return out
 
     def scaled(self, c: float) -> TimeLaw:
@@ -62,7 +62,9 @@ class TimeLaw:
 
 
 @njit(cache=True)
-def _s_at(s, sd, sdd, t, times, out):
+def s_at_times(s, sd, sdd, t, times, out):
+    """``out[j] = s(times[j])`` for the law with gridpoints ``s``, ``sd`` (ds/dt), ``sdd``
+    (constant on each interval) reached at times ``t`` (s)."""
     n = s.size
     for j in range(times.size):
         tj = times[j]

@@ -1,12 +1,12 @@
-"""Timing one group (planners/timing/group.py): limits held continuously, arguments checked."""
+"""Timing one group (planners/postprocess/timing/group.py): limits held continuously, arguments checked."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from rfp_twin.models.errors import SpecError
-from rfp_twin.planners.smoothing import SmoothPath, smooth_plan
-from rfp_twin.planners.timing import interaction_groups, interaction_pairs, time_group
+from rfp_twin.planners.postprocess.smoothing import SmoothPath, smooth_plan
+from rfp_twin.planners.postprocess.timing import interaction_groups, interaction_pairs, time_group
 from tests.planners.conftest import make_geom, plan_random
 from tests.planners.path_builders import A, CORNER, V, numeric_kinematics, real_groups
 
@@ -102,7 +102,7 @@ def test_an_interval_crossed_at_rest_is_refined_away(backend, monkeypatch):
     """TOPP-RA's greedy forward pass can leave x = 0 at both ends of the last interval
     (the kernel: infinite time, the library: ~1800 s); time_group refines the grid
     there and both backends give the same short law."""
-    from rfp_twin.planners.timing import group
+    from rfp_twin.planners.postprocess.timing import group
 
     sp = _ends_on_its_last_interval()
     law = time_group(sp, [0], (30.0, 30.0), (45.0, 45.0), backend=backend)

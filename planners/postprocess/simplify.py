@@ -8,7 +8,7 @@ angular tolerance of every dropped sample.
 The deviation is measured *vertically* (angle at the same time), not perpendicular to
 the chord as in the textbook RDP: what matters for collisions is where the arm is at a
 given instant. The result keeps the first and last samples, and only original samples,
-so the kinematic bounds of :func:`rfp_twin.planners.timing.pl_kinematics` carry over from the
+so the kinematic bounds of :func:`rfp_twin.planners.postprocess.timing.pl_kinematics` carry over from the
 dense trajectory to the simplified one.
 
 If the tolerance would need more than ``max_points`` points, the tolerance of that axis
@@ -111,7 +111,10 @@ def rdp_mask(t, y, tol, keep):
 
 
 @njit(cache=True)
-def _simplify_columns(t, Y, tol, max_points, keep, tol_used):
+def simplify_columns_kernel(t, Y, tol, max_points, keep, tol_used):
+    """The kernel of :func:`simplify_columns`, writing into ``keep`` (S, J) bool and
+    ``tol_used`` (J,); each column's tolerance grows by :data:`_RAISE` until at most
+    ``max_points`` are kept."""
     for c in range(Y.shape[1]):
         y = np.ascontiguousarray(Y[:, c])
         tc = tol[c]
@@ -160,7 +163,7 @@ def simplify_columns(t, Y, tol, max_points: int = 1024):
         raise field_error(SpecError, "max_points", max_points, ">= 2", "simplify")
     keep = np.empty(Y.shape, dtype=np.bool_)
     used = np.empty(Y.shape[1])
-    _simplify_columns(t, np.ascontiguousarray(Y), tol, int(max_points), keep, used)
+    simplify_columns_kernel(t, np.ascontiguousarray(Y), tol, int(max_points), keep, used)
     return keep, used
 
 
