@@ -22,7 +22,7 @@ exactly what they saw it do, and the patch's robots have no other neighbours. So
 first run with the patch's motion swapped in satisfies the step rule at every step (a
 ring move that the patch leaves no room for fails the attempt). A patch costs its own
 size, not the array's (2-3 s a whole-array run at 12,871 robots, 0.03-0.09 s a patch of
-150-450 robots), and each group gets its own ladder: one stubborn group no longer fails
+150-450 robots), and each group gets its own ladder: one stubborn group does not fail
 the others. Groups are taken in turn, each ring replaying the motion as the groups
 before left it; the robots of patches solved before, and the other groups' stuck robots,
 replay too (a patch never re-plans them).
