@@ -1,6 +1,7 @@
 """The ``rfp-twin`` command line (typer + rich): options in, pipeline out, tables printed.
 
-One module per group of commands: ``plan`` (:mod:`rfp_twin.twin.cli.plan`), ``simulate``,
+One module per group of commands: ``plan`` (:mod:`rfp_twin.twin.cli.plan`), ``assign``
+(:mod:`rfp_twin.twin.cli.assign`), ``simulate``,
 ``render``, ``record``, ``model export`` (:mod:`rfp_twin.twin.cli.run`), ``validate``,
 ``calibrate-buffer`` (:mod:`rfp_twin.twin.cli.validate`), ``study ...`` (:mod:`rfp_twin.twin.cli.study`),
 ``coverage`` (:mod:`rfp_twin.twin.cli.coverage`).
@@ -14,6 +15,7 @@ import gc
 import typer
 
 from rfp_twin.twin.cli import plan as _plan
+from rfp_twin.twin.cli.assign import assign as _assign
 from rfp_twin.twin.cli import run as _run
 from rfp_twin.twin.cli.coverage import coverage as _coverage
 from rfp_twin.twin.cli.console import run_app
@@ -30,6 +32,7 @@ def _root() -> None:
 
 
 app.command()(_plan.plan)
+app.command()(_assign)
 app.command()(_coverage)
 app.command()(_run.simulate)
 app.command()(_run.render)
