@@ -4,7 +4,8 @@ One module per group of commands: ``plan`` (:mod:`rfp_twin.twin.cli.plan`), ``as
 (:mod:`rfp_twin.twin.cli.assign`), ``simulate``,
 ``render``, ``record``, ``model export`` (:mod:`rfp_twin.twin.cli.run`), ``validate``,
 ``calibrate-buffer`` (:mod:`rfp_twin.twin.cli.validate`), ``study ...`` (:mod:`rfp_twin.twin.cli.study`),
-``coverage`` (:mod:`rfp_twin.twin.cli.coverage`).
+``coverage`` (:mod:`rfp_twin.twin.cli.coverage`), ``unwind``, ``explode``
+(:mod:`rfp_twin.twin.cli.recovery`).
 Every error is one line and an exit code from :mod:`rfp_twin.twin.cli.console`; nothing
 half-written is left behind.
 """
@@ -16,6 +17,7 @@ import typer
 
 from rfp_twin.twin.cli import plan as _plan
 from rfp_twin.twin.cli.assign import assign as _assign
+from rfp_twin.twin.cli import recovery as _recovery
 from rfp_twin.twin.cli import run as _run
 from rfp_twin.twin.cli.coverage import coverage as _coverage
 from rfp_twin.twin.cli.console import run_app
@@ -33,6 +35,8 @@ def _root() -> None:
 
 app.command()(_plan.plan)
 app.command()(_assign)
+app.command()(_recovery.unwind)
+app.command()(_recovery.explode)
 app.command()(_coverage)
 app.command()(_run.simulate)
 app.command()(_run.render)
