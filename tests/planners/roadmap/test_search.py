@@ -7,7 +7,7 @@ import pytest
 
 from rfp_twin.planners.roadmap import RoadmapSettings, plan_arm
 from rfp_twin.planners.roadmap.search import _neighbour_actions
-from tests.planners.roadmap_toys import (RNG, actions, direct_only, fig10_world, line_arm, region,
+from tests.planners.roadmap.toys import (RNG, actions, direct_only, fig10_world, line_arm, region,
                                          union, vertex_trap)
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from rfp_twin.models.errors import SpecError
 from rfp_twin.planners.roadmap import Arm, RoadmapSettings, goal_clear_after, plan_arm
-from tests.planners.roadmap_toys import (R_TOY, RNG, direct_only, line_arm, min_distance, never,
+from tests.planners.roadmap.toys import (R_TOY, RNG, direct_only, line_arm, min_distance, never,
                                          plane_arm, region, toy_world)
 
 

@@ -2,7 +2,7 @@
 
 :class:`ApfSettings` holds every parameter of the navigation-function planner (Makarem
 et al. 2014) and, through ``lambda3``, of its cooperative variant (Macktoobian et al.
-2019, :class:`rfp_twin.planners.apf.capf.CapfSettings`). Units: mm, deg, s.
+2019, :class:`rfp_twin.planners.fields.capf.CapfSettings`). Units: mm, deg, s.
 
 Collision models
 ----------------
@@ -56,8 +56,10 @@ SEGMENT_ENVELOPE_MM = 2.0
 MARGIN_SAFETY_MM = 0.005
 
 
-def _num(value, name: str, lo: float, hi: float, allowed: str, lo_open=True, hi_open=False,
-         where="ApfSettings") -> float:
+def checked_number(value, name: str, lo: float, hi: float, allowed: str, lo_open=True,
+                   hi_open=False, where="ApfSettings") -> float:
+    """``value`` as a float when finite and within (lo, hi) (``lo_open`` / ``hi_open``:
+    whether each end is excluded); else the SpecError of field ``name`` of ``where``."""
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -80,7 +82,7 @@ class ApfSettings:
         Attractive and repulsive weights (Makarem 2014: 1 and 0.05), in (0, 1000].
     lambda3 : float
         Cooperative weight (Macktoobian 2019, Eq. 5); 0 = plain APF.
-        :class:`rfp_twin.planners.apf.capf.CapfSettings` sets it; here it must be in [0, lambda1).
+        :class:`rfp_twin.planners.fields.capf.CapfSettings` sets it; here it must be in [0, lambda1).
     gain : float
         ``u = -gain J^T grad psi`` (1/s, lengths in mm), in (0, 1000]. The paper states
         no units, so its weights fix the shape of the field but not its time scale:
@@ -111,10 +113,10 @@ class ApfSettings:
         closer than this to the alpha axis, i.e. for |l_alpha - l_beta| below it (DESI).
     implicit_attraction : bool
         Linearly implicit Euler step in the attractive term (see
-        :mod:`rfp_twin.planners.apf.kernel`); False = plain explicit Euler as in the paper.
+        :mod:`rfp_twin.planners.fields.kernel`); False = plain explicit Euler as in the paper.
     guard : bool
         Halve/cancel steps that would bring a pair within ``d`` (see
-        :mod:`rfp_twin.planners.apf.kernel`).
+        :mod:`rfp_twin.planners.fields.kernel`).
     stall_window_s, stall_deg : float
         Stop early when no robot's net displacement over the last ``stall_window_s``
         (in (0, 600] s) exceeds ``stall_deg`` (in [0, 10] deg) on either axis.
@@ -154,39 +156,39 @@ class ApfSettings:
     def __post_init__(self) -> None:
         if self.model not in MODELS:
             raise field_error(SpecError, "model", self.model, " | ".join(MODELS), "ApfSettings")
-        l1 = _num(self.lambda1, "lambda1", 0.0, 1000.0, "(0, 1000]")
-        _num(self.lambda2, "lambda2", 0.0, 1000.0, "(0, 1000]")
-        _num(self.gain, "gain", 0.0, 1000.0, "(0, 1000] 1/s")
-        _num(self.lambda3, "lambda3", 0.0, l1, f"[0, lambda1 = {l1}) (Macktoobian: lambda3 < "
+        l1 = checked_number(self.lambda1, "lambda1", 0.0, 1000.0, "(0, 1000]")
+        checked_number(self.lambda2, "lambda2", 0.0, 1000.0, "(0, 1000]")
+        checked_number(self.gain, "gain", 0.0, 1000.0, "(0, 1000] 1/s")
+        checked_number(self.lambda3, "lambda3", 0.0, l1, f"[0, lambda1 = {l1}) (Macktoobian: lambda3 < "
              "lambda1)", lo_open=False, hi_open=True)
         if self.d_mm is not None:
-            _num(self.d_mm, "d_mm", 0.0, 100.0, "(0, 100] mm")
+            checked_number(self.d_mm, "d_mm", 0.0, 100.0, "(0, 100] mm")
         if self.D_mm is not None:
             lo = float(self.d_mm) if self.d_mm is not None else 0.0
-            _num(self.D_mm, "D_mm", lo, 100.0, f"({lo}, 100] mm (D > d)")
+            checked_number(self.D_mm, "D_mm", lo, 100.0, f"({lo}, 100] mm (D > d)")
         if self.margin_mm is not None:
-            _num(self.margin_mm, "margin_mm", 0.0, 10.0, "[0, 10] mm", lo_open=False)
-        _num(self.dt_s, "dt_s", 0.0, 0.1, "(0, 0.1] s")
-        _num(self.tol_mm, "tol_mm", 0.0, 10.0, "(0, 10] mm")
-        _num(self.max_time_s, "max_time_s", 0.0, 3600.0, "(0, 3600] s")
+            checked_number(self.margin_mm, "margin_mm", 0.0, 10.0, "[0, 10] mm", lo_open=False)
+        checked_number(self.dt_s, "dt_s", 0.0, 0.1, "(0, 0.1] s")
+        checked_number(self.tol_mm, "tol_mm", 0.0, 10.0, "(0, 10] mm")
+        checked_number(self.max_time_s, "max_time_s", 0.0, 3600.0, "(0, 3600] s")
         if self.speed_deg_s is not None:
             sp = tuple(self.speed_deg_s)
             if len(sp) != 2:
                 raise field_error(SpecError, "speed_deg_s", self.speed_deg_s,
                                   "(alpha, beta) deg/s, each in (0, 3600]", "ApfSettings")
             for v in sp:
-                _num(v, "speed_deg_s", 0.0, 3600.0, "(alpha, beta) deg/s, each in (0, 3600]")
-        _num(self.singular_band_deg, "singular_band_deg", 0.0, 45.0, "[0, 45] deg", lo_open=False)
-        _num(self.axis_radius_mm, "axis_radius_mm", 0.0, 100.0, "[0, 100] mm", lo_open=False)
-        _num(self.stall_window_s, "stall_window_s", 0.0, 600.0, "(0, 600] s")
-        _num(self.stall_deg, "stall_deg", 0.0, 10.0, "[0, 10] deg", lo_open=False)
-        _num(self.simplify_tol_deg, "simplify_tol_deg", 0.0, 1.0, "(0, 1] deg")
+                checked_number(v, "speed_deg_s", 0.0, 3600.0, "(alpha, beta) deg/s, each in (0, 3600]")
+        checked_number(self.singular_band_deg, "singular_band_deg", 0.0, 45.0, "[0, 45] deg", lo_open=False)
+        checked_number(self.axis_radius_mm, "axis_radius_mm", 0.0, 100.0, "[0, 100] mm", lo_open=False)
+        checked_number(self.stall_window_s, "stall_window_s", 0.0, 600.0, "(0, 600] s")
+        checked_number(self.stall_deg, "stall_deg", 0.0, 10.0, "[0, 10] deg", lo_open=False)
+        checked_number(self.simplify_tol_deg, "simplify_tol_deg", 0.0, 1.0, "(0, 1] deg")
         if isinstance(self.max_points, bool) or not isinstance(self.max_points, (int, np.integer)) \
                 or self.max_points < 2:
             raise field_error(SpecError, "max_points", self.max_points, "an integer >= 2",
                               "ApfSettings")
         if self.coop_radius_mm is not None:
-            _num(self.coop_radius_mm, "coop_radius_mm", 0.0, 1e4, "(0, 1e4] mm")
+            checked_number(self.coop_radius_mm, "coop_radius_mm", 0.0, 1e4, "(0, 1e4] mm")
 
     # -- resolved values ------------------------------------------------------------
     def speeds_deg_s(self, geom: ArrayGeometry) -> tuple[float, float]:

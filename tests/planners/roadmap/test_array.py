@@ -1,4 +1,4 @@
-"""Sabater's prioritized planner on whole arrays (planners/roadmap_array.py), checked by the
+"""Sabater's prioritized planner on whole arrays (planners/roadmap/array.py), checked by the
 independent 2D checker (rfp_twin.validation.checker2d), never by the planner itself."""
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.planners.plan import REACHED
 from rfp_twin.planners.resolve_search import SearchResolveSettings
-from rfp_twin.planners.roadmap_array import roadmap_pass, travel_priority
+from rfp_twin.planners.roadmap.array import roadmap_pass, travel_priority
 from rfp_twin.planners.solver import PlannerSettings, plan_reconfiguration
 from rfp_twin.planners.stepwise import max_displacement
 from rfp_twin.models.trajectory import Trajectory

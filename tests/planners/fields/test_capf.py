@@ -1,4 +1,4 @@
-"""Cooperative field (Macktoobian 2019 Eq. 5) on top of the APF: planners/apf/capf.py."""
+"""Cooperative field (Macktoobian 2019 Eq. 5) on top of the APF: planners/fields/capf.py."""
 from __future__ import annotations
 
 import numpy as np
@@ -9,7 +9,7 @@ from rfp_twin.models.errors import SpecError
 from rfp_twin.models.kinematics import forward
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
-from rfp_twin.planners.apf import (ApfSettings, CapfSettings, plan_apf, plan_apf_reconfiguration,
+from rfp_twin.planners.fields import (ApfSettings, CapfSettings, plan_apf, plan_apf_reconfiguration,
                           random_tip_configs)
 from rfp_twin.validation.checker2d import check_trajectory
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from rfp_twin.planners.roadmap import RoadmapSettings, plan_arm
-from tests.planners.roadmap_toys import (RNG, actions, direct_only, fig10_world, line_arm, region,
+from tests.planners.roadmap.toys import (RNG, actions, direct_only, fig10_world, line_arm, region,
                                          vertex_trap)
 
 

@@ -12,7 +12,7 @@ from rfp_twin.planners.resolve_search.paths import PathSet
 from rfp_twin.planners.resolve_search.settings import SearchResolveSettings
 from rfp_twin.planners.resolve_search.world import AlphaBetaWorld
 from rfp_twin.planners.roadmap import plan_arm
-from rfp_twin.planners.roadmap.arm import _compress
+from rfp_twin.planners.roadmap.arm import compress_breakpoints
 from tests.planners.test_resolve_search_world import _hex7_folded
 
 
@@ -73,7 +73,7 @@ def test_the_first_success_is_the_same_path_and_trajectory():
 
 
 def _compress_reference(times, configs, tol=1e-9):
-    """The one-breakpoint-at-a-time rule that ``_compress`` compiles."""
+    """The one-breakpoint-at-a-time rule that ``compress_breakpoints`` compiles."""
     keep = [0]
     for k in range(1, len(times)):
         if times[k] == times[keep[-1]] and np.allclose(configs[k], configs[keep[-1]], atol=tol):
@@ -103,16 +103,16 @@ def test_compress_keeps_the_breakpoints_the_reference_rule_keeps():
         times = np.cumsum(rng.choice([0.0, 1.0, 2.0], size=n))
         # runs of constant speed, stops and repeated points
         configs = np.cumsum(rng.choice([-1.0, 0.0, 0.0, 1.0], size=(n, 2)) * 0.25, axis=0)
-        got, want = _compress(times, configs), _compress_reference(times, configs)
+        got, want = compress_breakpoints(times, configs), _compress_reference(times, configs)
         assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
-    assert _compress(np.array([0.0, 1.0, 2.0]), np.array([[0.0], [1.0], [2.0]]))[0].tolist() == [0.0, 2.0]
+    assert compress_breakpoints(np.array([0.0, 1.0, 2.0]), np.array([[0.0], [1.0], [2.0]]))[0].tolist() == [0.0, 2.0]
 
 
 def test_edges_checked_together_get_the_answers_of_one_at_a_time():
     """The world's arm checks many straight edges in one call (``edges_forbidden``): the
     same answer per edge as sampling it (``_edge_samples``) and asking ``forbidden``,
     with a parked neighbour as a static obstacle and edges past the joint limits."""
-    from rfp_twin.planners.roadmap.graph import _EdgeFeasibility, _edge_samples
+    from rfp_twin.planners.roadmap.graph import EdgeFeasibility, _edge_samples
     from tests.planners.test_resolve_search_world import intrusion
 
     geom, md, c, right, reach, fold, paths = intrusion()
@@ -129,7 +129,7 @@ def test_edges_checked_together_get_the_answers_of_one_at_a_time():
     got, counts = arm.edges_forbidden(q0, q1, step)
     assert got.tolist() == want.tolist() and 0 < want.sum() < want.size
     assert counts.tolist() == [len(_edge_samples(a, b, step)) for a, b in zip(q0, q1)]
-    feasible = _EdgeFeasibility(replace(arm, edge_memo={}), step)
+    feasible = EdgeFeasibility(replace(arm, edge_memo={}), step)
     feasible.prefetch([np.stack([a, b]) for a, b in zip(q0, q1)])
     assert [feasible.ok(a, b) for a, b in zip(q0, q1)] == (~want).tolist()
 

@@ -1,4 +1,4 @@
-"""Small arrays and helpers shared by the potential-field tests (tests/planners/test_apf_*.py)."""
+"""Small arrays and helpers shared by the potential-field tests (tests/planners/fields/test_*.py)."""
 from __future__ import annotations
 
 import numpy as np

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from rfp_twin.planners.roadmap import RoadmapSettings, priority_search
-from tests.planners.roadmap_toys import R_TOY, RNG, min_distance, toy_world
+from tests.planners.roadmap.toys import R_TOY, RNG, min_distance, toy_world
 
 SETTINGS = RoadmapSettings(dt=0.5, dt_col=0.1, grid=(6, 6), n_random_edges=4, n_stop=None)
 #: Vertices at 0, 5 and 10 on each joint, no random edges.

@@ -1,12 +1,12 @@
-"""Random tip-model configurations (Makarem 2014 Sect. 6): planners/apf/tips.py."""
+"""Random tip-model configurations (Makarem 2014 Sect. 6): planners/fields/tips.py."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from rfp_twin.models.errors import SpecError, TargetError
-from rfp_twin.planners.apf import random_tip_configs
-from tests.planners.apf_cases import DESI, custom_geom, desi_geom, tips
+from rfp_twin.planners.fields import random_tip_configs
+from tests.planners.fields.cases import DESI, custom_geom, desi_geom, tips
 
 
 def min_tip_distance(geom, angles) -> float:

@@ -10,7 +10,7 @@ Eq. 4 writes this as the gradient of a potential xi_i that contains
 ``lambda3 sum_j |q_j - q_jT|^2``, but that term does not depend on robot i's joints: its
 true gradient with respect to robot i is zero. The kernel therefore codes Eq. 5 directly
 as a vector field (not a gradient); the repulsion has the same sign fix as the APF
-(:mod:`rfp_twin.planners.apf.field`; the paper copies Makarem 2014's printed sign). A robot is
+(:mod:`rfp_twin.planners.fields.field`; the paper copies Makarem 2014's printed sign). A robot is
 thus pushed along the direction its neighbours still have to go, ``q_jT - q_j``; near a
 deadlock this moves a robot that has arrived out of the way.
 
@@ -28,14 +28,14 @@ not used: completeness is checked by simulation (how many robots end within tole
 
 Everything else (collision models, saturation, singularities, guard, output) is the
 APF's, and so is the kernel (``lambda3 = 0`` is the APF): plan with
-``rfp_twin.planners.apf.plan_apf(..., CapfSettings(), algorithm="capf")``.
+``rfp_twin.planners.fields.plan_apf(..., CapfSettings(), algorithm="capf")``.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 from rfp_twin.models.errors import SpecError, field_error
-from rfp_twin.planners.apf.settings import ApfSettings
+from rfp_twin.planners.fields.settings import ApfSettings
 
 #: Macktoobian 2019 Sect. 7 (0.04 for its two largest test cases).
 DEFAULT_LAMBDA3 = 0.03
@@ -43,7 +43,7 @@ DEFAULT_LAMBDA3 = 0.03
 
 @dataclass(frozen=True)
 class CapfSettings(ApfSettings):
-    """:class:`rfp_twin.planners.apf.ApfSettings` with the cooperative weight switched on.
+    """:class:`rfp_twin.planners.fields.ApfSettings` with the cooperative weight switched on.
 
     lambda3 : float, in (0, lambda1); default 0.03 (Macktoobian 2019).
     """

@@ -1,4 +1,4 @@
-"""Parameters of the potential-field planners and their resolved distances: planners/apf/settings.py."""
+"""Parameters of the potential-field planners and their resolved distances: planners/fields/settings.py."""
 from __future__ import annotations
 
 import pytest
@@ -6,8 +6,8 @@ import pytest
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import SpecError
 from rfp_twin.models.layout import Layout
-from rfp_twin.planners.apf import ApfSettings, apf_target_margin_mm
-from tests.planners.apf_cases import DESI, SDSS, desi_geom
+from rfp_twin.planners.fields import ApfSettings, apf_target_margin_mm
+from tests.planners.fields.cases import DESI, SDSS, desi_geom
 
 
 @pytest.mark.parametrize("kwargs, field, allowed", [

@@ -9,13 +9,13 @@ and Eq. 7, and copied in Macktoobian et al. 2019, Eq. 5). The field used here is
     d rep / d q_i = -2 (D^2 - d^2) (q_i - q_j) / (s^2 - d^2)^2
 
 zero at ``s = D``, growing to +inf at ``s = d``: it pushes the tips apart; ``s <= d``
-counts as a collision. :func:`_barrier_weight` gives the factor of ``(q_i - q_j)``.
+counts as a collision. :func:`barrier_weight` gives the factor of ``(q_i - q_j)``.
 
-A robot's state is its pose row (:func:`_pose`): (cos a, sin a, cos(a+b), sin(a+b),
+A robot's state is its pose row (:func:`arm_poses`): (cos a, sin a, cos(a+b), sin(a+b),
 elbow x, elbow y), shape (n, 6). Distances are between tips (tip model) or beta
 collision segments (segment model, Sayres et al. 2021 Eq. 3); in segment mode the force
 acts at the closest point ``p`` of the segment, whose Jacobian is the tip's with
-``l_beta`` replaced by its distance ``r`` along the arm (:func:`_jt`). Segment distances
+``l_beta`` replaced by its distance ``r`` along the arm (:func:`jacobian_transpose`). Segment distances
 come from :mod:`rfp_twin.models.geometry2d`. Lengths in mm, angles in radians.
 
 Geometry is per robot (:class:`rfp_twin.models.array.ArrayGeometry`): robot i's elbow
@@ -32,11 +32,11 @@ import numpy as np
 from numba import njit
 
 # the point-segment projection and crossing test of the planner's capsule geometry
-from rfp_twin.models.geometry2d import _project_sq, _segments_cross, segment_closest
+from rfp_twin.models.geometry2d import project_sq, segments_cross, segment_closest
 
 
 @njit(cache=True)
-def _pose(base, th, la, out):
+def arm_poses(base, th, la, out):
     """out[i] = (cos a, sin a, cos(a+b), sin(a+b), elbow x, elbow y) for every robot.
 
     base : (n, 2) mm; th : (n, 2) rad; la : (n,) each robot's alpha arm length, mm;
@@ -62,7 +62,7 @@ def _seg_closest(ax, ay, bx, by, cx, cy, dx, dy):
     Crossing segments return distance 0 (P = Q = the crossing point); otherwise
     :func:`rfp_twin.models.geometry2d.segment_closest`.
     """
-    if _segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
+    if segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
         d1 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
         d2 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
         t = d1 / (d1 - d2)
@@ -73,7 +73,7 @@ def _seg_closest(ax, ay, bx, by, cx, cy, dx, dy):
 
 
 @njit(cache=True)
-def _pair(P, i, j, segment, lb, s0, s1):
+def pair_distance(P, i, j, segment, lb, s0, s1):
     """Distance of robots i, j and i's closest point: (s, r_i, px, py, qx, qy), mm.
 
     Tip mode: the tips (r_i = l_beta). Segment mode: the beta collision segments, robot
@@ -97,13 +97,13 @@ def _pair(P, i, j, segment, lb, s0, s1):
 
 
 @njit(cache=True)
-def _fid(P, i, fa, fb, f, segment, lb, s0, s1):
+def obstacle_distance(P, i, fa, fb, f, segment, lb, s0, s1):
     """Distance of robot i (tip or beta segment) to obstacle f: (s, r_i, px, py, qx, qy).
 
     The obstacle is the segment ``fa[f]``-``fb[f]`` ((m, 2) ends, mm; a point where the
     ends are equal, e.g. a fiducial). ``p`` is i's closest point (``r_i`` mm along its
     beta arm; ``l_beta`` in tip mode), ``q`` the obstacle's. s0, s1 : (n,) mm as in
-    :func:`_pair`.
+    :func:`pair_distance`.
     """
     ax = fa[f, 0]
     ay = fa[f, 1]
@@ -115,12 +115,12 @@ def _fid(P, i, fa, fb, f, segment, lb, s0, s1):
         py = P[i, 5] + lb * P[i, 3]
         if point:
             return math.sqrt((px - ax) ** 2 + (py - ay) ** 2), lb, px, py, ax, ay
-        s2, _, qx, qy = _project_sq(px, py, ax, ay, bx, by)
+        s2, _, qx, qy = project_sq(px, py, ax, ay, bx, by)
         return math.sqrt(s2), lb, px, py, qx, qy
     r0 = s0[i]
     r1 = s1[i]
     if point:
-        s2, t, px, py = _project_sq(ax, ay, P[i, 4] + r0 * P[i, 2], P[i, 5] + r0 * P[i, 3],
+        s2, t, px, py = project_sq(ax, ay, P[i, 4] + r0 * P[i, 2], P[i, 5] + r0 * P[i, 3],
                                     P[i, 4] + r1 * P[i, 2], P[i, 5] + r1 * P[i, 3])
         return math.sqrt(s2), r0 + t * (r1 - r0), px, py, ax, ay
     s, t, px, py, qx, qy = _seg_closest(
@@ -130,7 +130,7 @@ def _fid(P, i, fa, fb, f, segment, lb, s0, s1):
 
 
 @njit(cache=True)
-def _jt(P, i, la, r, fx, fy):
+def jacobian_transpose(P, i, la, r, fx, fy):
     """J^T f for the point at r along robot i's beta arm: (f . dp/dalpha, f . dp/dbeta).
 
     la : robot i's alpha arm length (scalar), mm; f = (fx, fy) a force in the plane.
@@ -142,7 +142,7 @@ def _jt(P, i, la, r, fx, fy):
 
 
 @njit(cache=True)
-def _barrier_weight(s, d, tiny, l2, dD2):
+def barrier_weight(s, d, tiny, l2, dD2):
     """``lambda2 |d rep / d q_i| / |q_i - q_j| = 2 lambda2 (D^2 - d^2) / (s^2 - d^2)^2``.
 
     ``s^2 - d^2`` is floored at ``tiny`` (a pair at or within ``d`` gets a large finite
@@ -155,7 +155,7 @@ def _barrier_weight(s, d, tiny, l2, dD2):
 
 
 @njit(cache=True)
-def _start_violation(base, th, la, lb, s0, s1, segment, nbr_ptr, nbr_idx, fid_ptr, fid_idx,
+def start_violation(base, th, la, lb, s0, s1, segment, nbr_ptr, nbr_idx, fid_ptr, fid_idx,
                      fid_a, fid_b, ex, fex, d, d_f, movable_only_mask):
     """First (i, j_or_-1-f, s) with s <= threshold at configuration th, or (-1, 0, inf).
 
@@ -164,19 +164,19 @@ def _start_violation(base, th, la, lb, s0, s1, segment, nbr_ptr, nbr_idx, fid_pt
     """
     n = base.shape[0]
     P = np.empty((n, 6))
-    _pose(base, th, la, P)
+    arm_poses(base, th, la, P)
     for i in range(n):
         for kk in range(nbr_ptr[i], nbr_ptr[i + 1]):
             j = nbr_idx[kk]
             if j <= i or not (movable_only_mask[i] or movable_only_mask[j]):
                 continue
-            s, _, _, _, _, _ = _pair(P, i, j, segment, lb, s0, s1)
+            s, _, _, _, _, _ = pair_distance(P, i, j, segment, lb, s0, s1)
             if s <= d + (ex[i] + ex[j]):
                 return i, j, s
         if movable_only_mask[i]:
             for kk in range(fid_ptr[i], fid_ptr[i + 1]):
                 f = fid_idx[kk]
-                s, _, _, _, _, _ = _fid(P, i, fid_a, fid_b, f, segment, lb, s0, s1)
+                s, _, _, _, _, _ = obstacle_distance(P, i, fid_a, fid_b, f, segment, lb, s0, s1)
                 if s <= d_f + (ex[i] + fex[f]):
                     return i, -1 - f, s
     return -1, 0, np.inf

@@ -1,10 +1,10 @@
 """Entry points of the potential-field planners: plan_apf and the CLI-shaped wrapper.
 
 Direct planning (Makarem et al. 2014; Macktoobian et al. 2019): from any start
-configuration straight to the targets, one run of :func:`rfp_twin.planners.apf.kernel.run_apf`,
+configuration straight to the targets, one run of :func:`rfp_twin.planners.fields.kernel.run_apf`,
 no reversal, no target replacement. This module checks the inputs, resolves the
 settings into the kernel's arguments (neighbour CSR, distances in mm, speeds and angles
-in radians) and packs the outcome into an :class:`rfp_twin.planners.apf.result.ApfResult`.
+in radians) and packs the outcome into an :class:`rfp_twin.planners.fields.result.ApfResult`.
 
 Angles: the public API is in degrees, radians inside the kernel. Alpha is integrated as
 a continuous angle by default (the field is 360-periodic in alpha and the papers'
@@ -32,10 +32,10 @@ import numpy as np
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import TargetError
 from rfp_twin.models.kinematics import forward
-from rfp_twin.planners.apf.field import _start_violation
-from rfp_twin.planners.apf.kernel import run_apf
-from rfp_twin.planners.apf.result import STOP_REASONS, ApfResult, _trajectory, apf_plan
-from rfp_twin.planners.apf.settings import DEG, ApfSettings, buffer_excess, obstacle_csr
+from rfp_twin.planners.fields.field import start_violation
+from rfp_twin.planners.fields.kernel import run_apf
+from rfp_twin.planners.fields.result import STOP_REASONS, ApfResult, events_trajectory, apf_plan
+from rfp_twin.planners.fields.settings import DEG, ApfSettings, buffer_excess, obstacle_csr
 from rfp_twin.planners.offline import apply_offline
 from rfp_twin.planners.targets import check_angles
 from rfp_twin.planners.plan import Plan
@@ -122,7 +122,7 @@ def plan_apf(geom: ArrayGeometry, start, targets, settings: ApfSettings | None =
 
     Targets closer than about ``d + 1`` mm (tip model; the equilibrium of attraction
     and repulsion) cannot be reached within 100 um, and targets within ``d`` never:
-    those robots end not converged. :func:`rfp_twin.planners.apf.tips.random_tip_configs` and
+    those robots end not converged. :func:`rfp_twin.planners.fields.tips.random_tip_configs` and
     :func:`apf_target_margin_mm` draw targets that can.
 
     Raises
@@ -154,7 +154,7 @@ def plan_apf(geom: ArrayGeometry, start, targets, settings: ApfSettings | None =
     fid_a = np.ascontiguousarray(geom.fid_xy, dtype=np.float64).reshape(-1, 2)
     fid_b = np.ascontiguousarray(geom.fid_end_xy, dtype=np.float64).reshape(-1, 2)
     th0 = np.ascontiguousarray(start * DEG)
-    i, j, s = _start_violation(geom.base_xy, th0, la, lb, s0, s1, segment, ptr, idx, fptr, fidx,
+    i, j, s = start_violation(geom.base_xy, th0, la, lb, s0, s1, segment, ptr, idx, fptr, fidx,
                                fid_a, fid_b, ex, fex, d, d_f, mov)
     if i >= 0:
         what = "tips" if not segment else "beta segments"
@@ -191,7 +191,7 @@ def plan_apf(geom: ArrayGeometry, start, targets, settings: ApfSettings | None =
     out_alpha = int(np.sum(mov & ((th_min[:, 0] / DEG < alo - 1e-9) | (th_max[:, 0] / DEG > ahi + 1e-9))))
     traj, tol_used = None, settings.simplify_tol_deg
     if record:
-        traj, tol_used = _trajectory(geom.robot_ids, ev_r[:n_ev], ev_a[:n_ev], ev_s[:n_ev],
+        traj, tol_used = events_trajectory(geom.robot_ids, ev_r[:n_ev], ev_a[:n_ev], ev_s[:n_ev],
                                      ev_v[:n_ev], n, dt, settings)
     return ApfResult(
         algorithm=algorithm, robot_ids=geom.robot_ids.copy(), trajectory=traj,
@@ -247,7 +247,7 @@ def apf_target_margin_mm(geom: ArrayGeometry, settings: ApfSettings) -> float:
 
     Pass it as ``margin_mm`` to :func:`rfp_twin.planners.targets.random_targets`. In tip mode the
     capsule clearance does not bound the tip distance; use
-    :func:`rfp_twin.planners.apf.tips.random_tip_configs`.
+    :func:`rfp_twin.planners.fields.tips.random_tip_configs`.
     """
     d, D, _, _, _ = settings.distances(geom)
     if settings.model == "segment":

@@ -5,10 +5,10 @@ Every robot ``i`` descends its own potential (Makarem et al. 2014, Eq. 2)::
     psi_i = lambda1 |q_i - q_iT|^2 + lambda2 sum_j rep(s_ij)
 
 with joint velocities ``u_i = -J_i^T grad_q psi_i`` (Makarem 2014, Eqs. 3-4; ``rep`` is
-sign-corrected, see :mod:`rfp_twin.planners.apf.field`), integrated by Euler steps of ``dt``
+sign-corrected, see :mod:`rfp_twin.planners.fields.field`), integrated by Euler steps of ``dt``
 until every fiber tip is within ``tol`` of its target. With ``lambda3 > 0`` robot i's
 Cartesian push also gets its cooperative neighbours' remaining errors, as a vector
-field (Macktoobian et al. 2019, Eq. 5; :mod:`rfp_twin.planners.apf.capf`).
+field (Macktoobian et al. 2019, Eq. 5; :mod:`rfp_twin.planners.fields.capf`).
 
 Not in the papers, and what this kernel does
 --------------------------------------------
@@ -65,7 +65,7 @@ import math
 import numpy as np
 from numba import njit
 
-from rfp_twin.planners.apf.field import _barrier_weight, _fid, _jt, _pair, _pose
+from rfp_twin.planners.fields.field import barrier_weight, obstacle_distance, jacobian_transpose, pair_distance, arm_poses
 
 #: Halvings of a guarded step before it is cancelled.
 GUARD_HALVINGS = 4
@@ -167,7 +167,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
     k = 0
     stop = 2
     while True:
-        _pose(base, th, la, P)
+        arm_poses(base, th, la, P)
         # --- state statistics, convergence -------------------------------------------
         all_conv = True
         for i in range(n):
@@ -183,7 +183,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                 if st < min_tip:
                     min_tip = st
                 if segment:
-                    s, _, _, _, _, _ = _pair(P, i, j, segment, lb, s0, s1)
+                    s, _, _, _, _, _ = pair_distance(P, i, j, segment, lb, s0, s1)
                     s -= ex[i] + ex[j]
                     if s < min_pair:
                         min_pair = s
@@ -191,7 +191,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                     min_pair = st
             for kk in range(fid_ptr[i], fid_ptr[i + 1]):
                 f = fid_idx[kk]
-                s, _, _, _, _, _ = _fid(P, i, fid_a, fid_b, f, segment, lb, s0, s1)
+                s, _, _, _, _, _ = obstacle_distance(P, i, fid_a, fid_b, f, segment, lb, s0, s1)
                 s -= ex[i] + fex[f]
                 if s < min_fid:
                     min_fid = s
@@ -237,7 +237,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                     if nbr_coop[kk] and movable[j]:
                         gx += 2.0 * l3 * (P[j, 4] + lb * P[j, 2] - target_xy[j, 0])
                         gy += 2.0 * l3 * (P[j, 5] + lb * P[j, 3] - target_xy[j, 1])
-            fa, fb = _jt(P, i, la[i], lb, -gx, -gy)
+            fa, fb = jacobian_transpose(P, i, la[i], lb, -gx, -gy)
             sb = P[i, 2] * P[i, 1] - P[i, 3] * P[i, 0]     # sin(beta)
             if band_sin > 0.0 and abs(sb) < band_sin:
                 cb = P[i, 2] * P[i, 0] + P[i, 3] * P[i, 1]  # cos(beta)
@@ -260,13 +260,13 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
             # repulsion from neighbours (sign-corrected Eq. 2)
             for kk in range(nbr_ptr[i], nbr_ptr[i + 1]):
                 j = nbr_idx[kk]
-                s, r, px, py, qx, qy = _pair(P, i, j, segment, lb, s0, s1)
+                s, r, px, py, qx, qy = pair_distance(P, i, j, segment, lb, s0, s1)
                 e = ex[i] + ex[j]
                 Dij = D + e
                 if s >= Dij:
                     continue
                 dij = d + e
-                w = _barrier_weight(s, dij, 1e-6 * dij * dij, l2, Dij * Dij - dij * dij)
+                w = barrier_weight(s, dij, 1e-6 * dij * dij, l2, Dij * Dij - dij * dij)
                 vx = px - qx
                 vy = py - qy
                 if s < 1e-12:
@@ -275,18 +275,18 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                     nv = math.sqrt(vx * vx + vy * vy)
                     vx *= dij / nv
                     vy *= dij / nv
-                ra, rb = _jt(P, i, la[i], r, w * vx, w * vy)
+                ra, rb = jacobian_transpose(P, i, la[i], r, w * vx, w * vy)
                 ua += ra
                 ub += rb
             for kk in range(fid_ptr[i], fid_ptr[i + 1]):
                 f = fid_idx[kk]
-                s, r, px, py, qx, qy = _fid(P, i, fid_a, fid_b, f, segment, lb, s0, s1)
+                s, r, px, py, qx, qy = obstacle_distance(P, i, fid_a, fid_b, f, segment, lb, s0, s1)
                 e = ex[i] + fex[f]
                 Dif = D_f + e
                 if s >= Dif:
                     continue
                 dif = d_f + e
-                w = _barrier_weight(s, dif, 1e-6 * dif * dif, l2, Dif * Dif - dif * dif)
+                w = barrier_weight(s, dif, 1e-6 * dif * dif, l2, Dif * Dif - dif * dif)
                 vx = px - qx
                 vy = py - qy
                 if s < 1e-12:   # on the obstacle: push away from it towards the base
@@ -295,7 +295,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                     nv = max(math.sqrt(vx * vx + vy * vy), 1e-12)
                     vx *= dif / nv
                     vy *= dif / nv
-                ra, rb = _jt(P, i, la[i], r, w * vx, w * vy)
+                ra, rb = jacobian_transpose(P, i, la[i], r, w * vx, w * vy)
                 ua += ra
                 ub += rb
             # alpha-axis rule: alpha moves the tip with gain r = |tip - base|; below
@@ -347,7 +347,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                             a = alpha_hi[i]
                     prop[i, 0] = a
                     prop[i, 1] = b
-            _pose(base, prop, la, Q)
+            arm_poses(base, prop, la, Q)
             first = False
             if not guard:
                 break
@@ -357,7 +357,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                 bad = False
                 for kk in range(nbr_ptr[i], nbr_ptr[i + 1]):
                     j = nbr_idx[kk]
-                    s, _, _, _, _, _ = _pair(Q, i, j, segment, lb, s0, s1)
+                    s, _, _, _, _, _ = pair_distance(Q, i, j, segment, lb, s0, s1)
                     if s <= d + (ex[i] + ex[j]):
                         bad = True
                         if frac[j] > 0.0:
@@ -366,7 +366,7 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                 if not bad:
                     for kk in range(fid_ptr[i], fid_ptr[i + 1]):
                         f = fid_idx[kk]
-                        s, _, _, _, _, _ = _fid(Q, i, fid_a, fid_b, f, segment, lb, s0, s1)
+                        s, _, _, _, _, _ = obstacle_distance(Q, i, fid_a, fid_b, f, segment, lb, s0, s1)
                         if s <= d_f + (ex[i] + fex[f]):
                             bad = True
                             break

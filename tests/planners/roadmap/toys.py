@@ -1,4 +1,4 @@
-"""Toy robots for the roadmap planner tests (tests/planners/test_roadmap_*.py).
+"""Toy robots for the roadmap planner tests (tests/planners/roadmap/test_*.py).
 
 Points on a line (1 joint) or in the plane (2 joints), with obstacles given directly as
 regions of state-time: nothing here knows alpha/beta arms. Units: joint units and time

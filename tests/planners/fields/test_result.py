@@ -1,4 +1,4 @@
-"""What a potential-field run returns (planners/apf/result.py): the Plan of an ApfResult
+"""What a potential-field run returns (planners/fields/result.py): the Plan of an ApfResult
 replays its trajectory on the Euler step clock and carries the solver's metric keys."""
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import pytest
 
 from rfp_twin.models.errors import SpecError
 from rfp_twin.models.trajectory import Trajectory
-from rfp_twin.planners.apf import (ApfSettings, apf_plan, plan_apf, plan_apf_reconfiguration,
+from rfp_twin.planners.fields import (ApfSettings, apf_plan, plan_apf, plan_apf_reconfiguration,
                           random_tip_configs)
-from tests.planners.apf_cases import DESI, desi_geom
+from tests.planners.fields.cases import DESI, desi_geom
 
 
 def test_plan_replays_the_trajectory_on_the_step_clock():

@@ -1,4 +1,4 @@
-"""The sign-corrected repulsion (Makarem 2014 Eq. 2) and its gradient: planners/apf/field.py,
+"""The sign-corrected repulsion (Makarem 2014 Eq. 2) and its gradient: planners/fields/field.py,
 observed through one Euler step of plan_apf."""
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from rfp_twin.models.geometry2d import pair_distances
-from rfp_twin.planners.apf import ApfSettings, plan_apf
-from tests.planners.apf_cases import DESI, SDSS, angles_for, custom_geom, tips
+from rfp_twin.planners.fields import ApfSettings, plan_apf
+from tests.planners.fields.cases import DESI, SDSS, angles_for, custom_geom, tips
 
 #: One plain explicit Euler step: no implicit attraction, guard, band rules or saturation.
 ONE_STEP = dict(max_time_s=0.01, implicit_attraction=False, guard=False, singular_band_deg=0.0,

@@ -5,7 +5,7 @@ fiber tips are "at least d apart". :func:`random_tip_configs` draws such
 configurations: right-armed, tips uniform (by area) in the patrol annulus, clear of the
 tips already placed and of the fiducial disks. Only tips count (not the arms' capsules):
 for the segment model use :func:`rfp_twin.planners.targets.random_targets` with
-:func:`rfp_twin.planners.apf.apf_target_margin_mm`. Angles in deg, lengths in mm.
+:func:`rfp_twin.planners.fields.apf_target_margin_mm`. Angles in deg, lengths in mm.
 """
 from __future__ import annotations
 
@@ -17,8 +17,8 @@ from numba import njit
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import TargetError
 from rfp_twin.models.kinematics import sample_patrol_zone
-from rfp_twin.models.geometry2d import _project_sq
-from rfp_twin.planners.apf.settings import DEG, _num, obstacle_csr
+from rfp_twin.models.geometry2d import project_sq
+from rfp_twin.planners.fields.settings import DEG, checked_number, obstacle_csr
 
 
 @njit(cache=True)
@@ -58,7 +58,7 @@ def _assign_tips(base, pool, fixed, out, nbr_ptr, nbr_idx, fid_ptr, fid_idx, fid
                     if fid_a[f, 0] == fid_b[f, 0] and fid_a[f, 1] == fid_b[f, 1]:
                         d2 = (fid_a[f, 0] - tx) ** 2 + (fid_a[f, 1] - ty) ** 2
                     else:
-                        d2 = _project_sq(tx, ty, fid_a[f, 0], fid_a[f, 1], fid_b[f, 0], fid_b[f, 1])[0]
+                        d2 = project_sq(tx, ty, fid_a[f, 0], fid_a[f, 1], fid_b[f, 0], fid_b[f, 1])[0]
                     if d2 <= fs * fs:
                         ok = False
                         break
@@ -102,7 +102,7 @@ def random_tip_configs(geom: ArrayGeometry, rng: np.random.Generator, min_sep_mm
     TargetError
         When no clear spot is found for some robot in ``attempts`` draws.
     """
-    sep = _num(min_sep_mm, "min_sep_mm", 0.0, 1e3, "(0, 1000] mm", where="random_tip_configs")
+    sep = checked_number(min_sep_mm, "min_sep_mm", 0.0, 1e3, "(0, 1000] mm", where="random_tip_configs")
     spec = geom.spec
     n = geom.n_robots
     la_arr = np.ascontiguousarray(geom.alpha_len, dtype=np.float64)

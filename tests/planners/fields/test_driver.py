@@ -1,4 +1,4 @@
-"""Entry points of the potential-field planners: planners/apf/driver.py (plan_apf and the
+"""Entry points of the potential-field planners: planners/fields/driver.py (plan_apf and the
 CLI-shaped plan_apf_reconfiguration), checked by the independent 2D checker."""
 from __future__ import annotations
 
@@ -8,11 +8,11 @@ import pytest
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import TargetError, UnknownRobotError
 from rfp_twin.models.layout import Layout
-from rfp_twin.planners.apf import (ApfSettings, apf_target_margin_mm, plan_apf, plan_apf_reconfiguration,
+from rfp_twin.planners.fields import (ApfSettings, apf_target_margin_mm, plan_apf, plan_apf_reconfiguration,
                           random_tip_configs)
 from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED
 from rfp_twin.planners.targets import random_targets
-from tests.planners.apf_cases import DESI, SDSS, angles_for, custom_geom, desi_geom
+from tests.planners.fields.cases import DESI, SDSS, angles_for, custom_geom, desi_geom
 from rfp_twin.validation.checker2d import check_trajectory
 
 

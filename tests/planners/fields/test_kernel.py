@@ -1,5 +1,5 @@
 """The integration kernel of the navigation field (Makarem 2014 and this repo's rules for
-singularities, alpha limits, obstacles): planners/apf/kernel.py, through plan_apf."""
+singularities, alpha limits, obstacles): planners/fields/kernel.py, through plan_apf."""
 from __future__ import annotations
 
 import math
@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from rfp_twin.planners.apf import ApfSettings, plan_apf, random_tip_configs
-from tests.planners.apf_cases import DESI, angles_for, custom_geom, desi_geom, tips
+from rfp_twin.planners.fields import ApfSettings, plan_apf, random_tip_configs
+from tests.planners.fields.cases import DESI, angles_for, custom_geom, desi_geom, tips
 
 
 # --------------------------------------------------------------------------------------

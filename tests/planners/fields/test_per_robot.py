@@ -1,4 +1,4 @@
-"""Per-robot geometry in the potential-field planners (planners/apf/): each robot's own
+"""Per-robot geometry in the potential-field planners (planners/fields/): each robot's own
 alpha length, beta segment and buffer, and obstacles that are segments ("gfa" rows) with
 their own keep-out radius. Every test compares a per-robot layout with the nominal one,
 so it fails when the per-robot value is ignored. Lengths in mm, angles in deg."""
@@ -12,12 +12,12 @@ import pytest
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import TargetError
 from rfp_twin.models.layout import Layout
-from rfp_twin.planners.apf import ApfSettings, CapfSettings, default_margin_mm, plan_apf, \
+from rfp_twin.planners.fields import ApfSettings, CapfSettings, default_margin_mm, plan_apf, \
     random_tip_configs
-from rfp_twin.planners.apf.driver import tip_positions
-from rfp_twin.planners.apf.field import _fid, _pair, _pose
-from rfp_twin.planners.apf.tips import _assign_tips
-from tests.planners.apf_cases import DESI, SDSS, tips
+from rfp_twin.planners.fields.driver import tip_positions
+from rfp_twin.planners.fields.field import obstacle_distance, pair_distance, arm_poses
+from rfp_twin.planners.fields.tips import _assign_tips
+from tests.planners.fields.cases import DESI, SDSS, tips
 
 SEG = ApfSettings(model="segment")
 
@@ -49,7 +49,7 @@ def test_pose_puts_each_elbow_at_its_own_alpha_length():
     base = np.array([[0.0, 0.0], [40.0, 0.0]])
     th = np.radians([[60.0, 10.0], [60.0, 10.0]])
     P = np.empty((2, 6))
-    _pose(base, th, np.array([7.4, 9.4]), P)
+    arm_poses(base, th, np.array([7.4, 9.4]), P)
     np.testing.assert_allclose(P[0, 4:] - base[0], 7.4 * np.array([0.5, math.sqrt(0.75)]))
     np.testing.assert_allclose(P[1, 4:] - base[1], 9.4 * np.array([0.5, math.sqrt(0.75)]))
 
@@ -171,8 +171,8 @@ def test_larger_buffer_holds_a_robot_farther_away():
         r = plan_apf(geom, start, targets, ApfSettings(model="segment", max_time_s=4.0),
                      movable=np.array([False, True]))
         P = np.empty((2, 6))
-        _pose(geom.base_xy, np.radians(r.final), geom.alpha_len, P)
-        gaps[label] = _pair(P, 0, 1, True, 15.0, geom.seg_start, geom.seg_end)[0]
+        arm_poses(geom.base_xy, np.radians(r.final), geom.alpha_len, P)
+        gaps[label] = pair_distance(P, 0, 1, True, 15.0, geom.seg_start, geom.seg_end)[0]
         assert r.min_distance_mm > r.d_mm
     assert d < gaps["nominal"] < d + 0.45
     assert gaps["worn"] > d + 0.5
@@ -193,13 +193,13 @@ def _gfa(h_mm: float, segment: bool = True):
 def test_field_distance_to_a_gfa_segment_is_at_the_arm_middle():
     geom = _gfa(5.0)
     P = np.empty((1, 6))
-    _pose(geom.base_xy, np.zeros((1, 2)), geom.alpha_len, P)
-    s, r, px, py, qx, qy = _fid(P, 0, geom.fid_xy, geom.fid_end_xy, 0, True, 15.0,
+    arm_poses(geom.base_xy, np.zeros((1, 2)), geom.alpha_len, P)
+    s, r, px, py, qx, qy = obstacle_distance(P, 0, geom.fid_xy, geom.fid_end_xy, 0, True, 15.0,
                                 geom.seg_start, geom.seg_end)
     assert s == pytest.approx(5.0) and r == pytest.approx(7.5)
     assert (px, py, qx, qy) == pytest.approx((14.9, 0.0, 14.9, 5.0))
     point = _gfa(5.0, segment=False)
-    s_pt, *_ = _fid(P, 0, point.fid_xy, point.fid_end_xy, 0, True, 15.0, point.seg_start,
+    s_pt, *_ = obstacle_distance(P, 0, point.fid_xy, point.fid_end_xy, 0, True, 15.0, point.seg_start,
                     point.seg_end)
     assert s_pt == pytest.approx(45.0)
 
@@ -217,8 +217,8 @@ def test_gfa_segment_blocks_a_start_that_its_first_end_does_not():
 def _edge_distance(geom, angles_deg):
     """(distance of robot 0's beta segment to obstacle 0, r of its closest point), mm."""
     P = np.empty((1, 6))
-    _pose(geom.base_xy, np.radians(np.asarray(angles_deg, dtype=float)), geom.alpha_len, P)
-    s, r, *_ = _fid(P, 0, geom.fid_xy, geom.fid_end_xy, 0, True, 15.0, geom.seg_start,
+    arm_poses(geom.base_xy, np.radians(np.asarray(angles_deg, dtype=float)), geom.alpha_len, P)
+    s, r, *_ = obstacle_distance(P, 0, geom.fid_xy, geom.fid_end_xy, 0, True, 15.0, geom.seg_start,
                     geom.seg_end)
     return s, r
 

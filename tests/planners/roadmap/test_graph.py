@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from rfp_twin.planners.roadmap import RoadmapSettings, build_roadmap, edge_time
-from tests.planners.roadmap_toys import RNG, plane_arm
+from tests.planners.roadmap.toys import RNG, plane_arm
 
 
 def disk(q):

@@ -1,7 +1,7 @@
 """What a potential-field run returns: ApfResult, its Trajectory and its Plan.
 
-The kernel (:mod:`rfp_twin.planners.apf.kernel`) records breakpoints (robot, axis, Euler step,
-angle rad); :func:`_trajectory` turns them into a :class:`rfp_twin.models.trajectory.Trajectory`
+The kernel (:mod:`rfp_twin.planners.fields.kernel`) records breakpoints (robot, axis, Euler step,
+angle rad); :func:`events_trajectory` turns them into a :class:`rfp_twin.models.trajectory.Trajectory`
 (deg, s), sending axes with more than ``max_points`` breakpoints through
 :func:`rfp_twin.planners.postprocess.simplify.simplify_axis` (RDP, tolerance raised until they fit).
 :func:`apf_plan` turns a result into a :class:`rfp_twin.planners.plan.Plan` on a step clock
@@ -15,7 +15,7 @@ import numpy as np
 
 from rfp_twin.models.errors import SpecError, field_error
 from rfp_twin.models.trajectory import Trajectory
-from rfp_twin.planners.apf.settings import DEG, ApfSettings
+from rfp_twin.planners.fields.settings import DEG, ApfSettings
 from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, Plan
 from rfp_twin.planners.postprocess.simplify import simplify_axis
 
@@ -25,7 +25,7 @@ STOP_REASONS = ("converged", "stalled", "max_time")
 
 @dataclass
 class ApfResult:
-    """Outcome of one :func:`rfp_twin.planners.apf.plan_apf` run (APF or CAPF).
+    """Outcome of one :func:`rfp_twin.planners.fields.plan_apf` run (APF or CAPF).
 
     Attributes
     ----------
@@ -51,7 +51,7 @@ class ApfResult:
         robot's and the obstacle's buffer excess (compares with ``d_fid_mm``), seen, mm.
         Obstacles are fiducial points or guide-camera edge segments.
     d_mm, D_mm, d_fid_mm, D_fid_mm, margin_mm : float, resolved nominal distances (run
-        buffer, spec fiducial buffer; see :mod:`rfp_twin.planners.apf.settings`)
+        buffer, spec fiducial buffer; see :mod:`rfp_twin.planners.fields.settings`)
     motion_time_s : float
         ``steps x dt`` when converged or stopped at ``max_time_s``; for a stalled run the
         time when the stall window began.
@@ -175,7 +175,7 @@ def apf_plan(result: ApfResult) -> Plan:
         metrics=result.metrics())
 
 
-def _trajectory(robot_ids, ev_r, ev_a, ev_s, ev_v, n, dt, settings):
+def events_trajectory(robot_ids, ev_r, ev_a, ev_s, ev_v, n, dt, settings):
     """Kernel breakpoints (rad, steps) -> Trajectory (deg, s), capped at max_points."""
     key = ev_r * 2 + ev_a
     order = np.lexsort((ev_s, key))
