@@ -74,7 +74,7 @@ class PlannerSettings:
     """Parameters of one planning job.
 
     algorithm : "greedy" | "markov" (the stepwise kernel) | "roadmap" (Sabater's
-    prioritized planner on every robot, :mod:`rfp_twin.planners.roadmap_array`); step_deg :
+    prioritized planner on every robot, :mod:`rfp_twin.planners.roadmap.array`); step_deg :
     angular step (deg); greed, phobia : MC parameters in [0, 1]; direction : "reverse" | "forward"; max_steps : step limit
     (default 1000 deg / step, as in the paper); max_rounds : deadlock-resolution rounds.
     resolve : "search" (re-plan each deadlocked group with the state-time search of
@@ -96,9 +96,9 @@ class PlannerSettings:
     (in steps) is at most this fraction of the run's longest alpha travel retract beta
     first: their obvious move holds alpha until beta is at its destination, and when
     that move is blocked they move as usual. A retracted arm leaves its neighbours room
-    to turn, and those robots have the time to spare (Table 3 setting, 547 grid, 2.5 mm,
-    0.25 deg, seeds 0-9 at 0.85: median fold with acceleration limits 13.74 -> 13.28 s,
-    benchmarks/RESULTS.md, S15). fold_repairs : with ``beta_first``, whole runs at most
+    to turn, and those robots have the time to spare (on the Table 3 setting it shortens
+    the fold with acceleration limits; benchmarks/RESULTS.md). fold_repairs : with
+    ``beta_first``, whole runs at most
     per round that switch the rule of the robot blocking the last one's alpha, each
     kept if robots arrive sooner (:mod:`rfp_twin.planners.fold_repair`); 0 = none.
     """
@@ -184,9 +184,9 @@ def beta_first_robots(start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
 
 def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
                  settings: PlannerSettings, md: float, seed: int) -> StepRun:
-    """A roadmap pass (:func:`rfp_twin.planners.roadmap_array.roadmap_pass`) as a StepRun."""
+    """A roadmap pass (:func:`rfp_twin.planners.roadmap.array.roadmap_pass`) as a StepRun."""
     from rfp_twin.planners.resolve_search import SearchResolveSettings
-    from rfp_twin.planners.roadmap_array import roadmap_pass
+    from rfp_twin.planners.roadmap.array import roadmap_pass
 
     res = roadmap_pass(geom, start, dest, movable, md, settings.step_deg,
                        settings.search or SearchResolveSettings(), np.random.default_rng(seed))
