@@ -49,10 +49,13 @@ def travel_times(kind, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
 def priority_order(kind, start: np.ndarray, goal: np.ndarray, policy: str,
                    rng: np.random.Generator) -> list[int]:
     """Arm indices, highest priority first: longest estimated travel first (ties by
-    index) for ``"travel-time"``, a random permutation for ``"random"``."""
+    index) for ``"travel-time"``, the same after the arms that do not move for
+    ``"still-first"``, a random permutation for ``"random"``."""
     if policy == "random":
         return [int(i) for i in rng.permutation(len(start))]
     est = travel_times(kind, start, goal)
+    if policy == "still-first":
+        return sorted(range(len(start)), key=lambda i: (est[i] > 0, -round(float(est[i]), 9), i))
     return sorted(range(len(start)), key=lambda i: (-round(float(est[i]), 9), i))
 
 
@@ -130,7 +133,7 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
                      checks=counter["checks"], seconds=time.perf_counter() - arm_clock)
         if traj is None:
             rows.append(row)
-            return ProbePlan(kind, start, goal, s, order, rows, {}, False, i,
+            return ProbePlan(kind, start, goal, s, order, rows, trajectories, False, i,
                              time.perf_counter() - clock)
         n_mid = len(traj.path) - 2
         row.path = "-".join(["Start", *(next(letters) for _ in range(n_mid)), "end"])

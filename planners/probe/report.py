@@ -58,7 +58,8 @@ class ProbePlan:
     settings : ProbePlanSettings
     order : list of arm indices, highest priority first
     rows : list of ArmRow, in planning order (up to the failing arm)
-    trajectories : {arm: ArmTrajectory} (times s, configs deg), every arm when success
+    trajectories : {arm: ArmTrajectory} (times s, configs deg), every arm when success,
+        the arms planned before the failing one otherwise
     success : bool; failed_arm : the arm with no trajectory, or None
     seconds : float, planning time of the whole plan
     """

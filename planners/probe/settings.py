@@ -12,9 +12,11 @@ from dataclasses import dataclass
 
 from rfp_twin.models.errors import SpecError, field_error
 
-#: Priority policies: the paper's (longest estimated travel time first), or a random
-#: order drawn from the plan's generator.
-PRIORITIES = ("travel-time", "random")
+#: Priority policies: the paper's (longest estimated travel time first); the same with
+#: the arms that do not move first (they are then fixed obstacles the others avoid,
+#: instead of arms that must dodge them with one start-stop cycle); a random order
+#: drawn from the plan's generator.
+PRIORITIES = ("travel-time", "still-first", "random")
 
 
 @dataclass(frozen=True)
@@ -35,7 +37,7 @@ class ProbePlanSettings:
         discarded
     horizon_s : float, T_f: nodes at or after this time are not expanded, so every arm
         arrives by then (the paper's 120 s configuration-time goal)
-    priority : "travel-time" (Sect. 7) | "random"
+    priority : "travel-time" (Sect. 7) | "still-first" | "random" (:data:`PRIORITIES`)
     """
 
     dt_s: float = 6.0
