@@ -16,7 +16,7 @@ Run from the repository root::
    post-processing seconds, the longest group.
 2. ``planners``: the same ratio per planner / resolver (``greedy/search``,
    ``markov/replace``, ...) on the same targets (``--planner-seeds``, 2.5 mm);
-   ``roadmap/search`` can be added, at ~25 s a plan on 500 robots (S16).
+   ``roadmap/search`` can be added, at ~25 s a plan on 500 robots.
 
 Every run is checked: a post-processed trajectory exists only after the 2D checker
 passed it at buffer - 0.03 mm. Prints a markdown block to paste into

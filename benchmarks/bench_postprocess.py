@@ -59,8 +59,8 @@ import numpy as np
 from bench_common import command_line, machine_info, paste_note
 from rfp_twin.models.layout import Layout
 from rfp_twin.planners.postprocess import DEFAULT_PRESIMPLIFY_DEG, postprocess
-from rfp_twin.planners.smoothing import smooth_plan, window_for_limits
-from rfp_twin.planners.timing import DEFAULT_BACKEND, interaction_groups, interaction_pairs, time_group
+from rfp_twin.planners.postprocess.smoothing import smooth_plan, window_for_limits
+from rfp_twin.planners.postprocess.timing import DEFAULT_BACKEND, interaction_groups, interaction_pairs, time_group
 from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration, check_trajectory, plan_random
 
 TARGET_S = 3.0

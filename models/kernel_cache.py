@@ -8,7 +8,7 @@ long kernel that releases the GIL runs on the main thread (the stepwise planners
 :func:`preload_cached` starts that thread. It only *loads* what the cache holds for the
 current code (the signatures in each kernel's cache index whose source hash and target
 match), so it loads and does not compile: with a cold cache the kernels compile at their
-first call, as before.
+first call, as without it.
 
 numba's compiler lock serialises loads: a kernel that the main thread calls while the
 thread loads another waits for that load. So the thread can be told to start only once

@@ -34,7 +34,7 @@ _LAZY = {
     **dict.fromkeys(("ApfSettings", "CapfSettings", "plan_apf", "plan_apf_reconfiguration",
                      "apf_target_margin_mm"), "rfp_twin.planners.apf"),
     **dict.fromkeys(("postprocess", "PostprocessReport", "Verifier"), "rfp_twin.planners.postprocess"),
-    **dict.fromkeys(("BACKENDS", "DEFAULT_BACKEND"), "rfp_twin.planners.timing"),
+    **dict.fromkeys(("BACKENDS", "DEFAULT_BACKEND"), "rfp_twin.planners.postprocess.timing"),
 }
 
 __all__ = sorted(_LAZY)

@@ -2,7 +2,7 @@
 
 The robot that moves longest in a stepwise run (typically ~350 deg of alpha travel)
 sets the fold; it often loses hundreds of steps to alpha moves that a neighbour's arm
-blocks while beta moves alone (Table 3 setting, benchmarks/RESULTS.md, S15). With the
+blocks while beta moves alone (the Table 3 setting, benchmarks/RESULTS.md). With the
 beta-first rule (``PlannerSettings.beta_first``: robots with time to spare retract beta
 before turning alpha) most of those neighbours are out of the way; where one still is,
 switching that neighbour's rule (beta first or not) often frees the robot. This module

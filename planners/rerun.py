@@ -22,7 +22,7 @@ exactly what they saw it do, and the patch's robots have no other neighbours. So
 first run with the patch's motion swapped in satisfies the step rule at every step (a
 ring move that the patch leaves no room for fails the attempt). A patch costs its own
 size, not the array's (2-3 s a whole-array run at 12,871 robots, 0.03-0.09 s a patch of
-150-450 robots), and each group gets its own ladder: one stubborn group no longer fails
+150-450 robots), and each group gets its own ladder: one stubborn group does not fail
 the others. Groups are taken in turn, each ring replaying the motion as the groups
 before left it; the robots of patches solved before, and the other groups' stuck robots,
 replay too (a patch never re-plans them).
@@ -37,10 +37,9 @@ more have been made after the first complete one (or the ladder is spent, or
 keeps its first-run motion for the next resolver (the state-time search). The
 pipeline's independent 2D check looks at the result as at any plan.
 
-Measured on the 500-robot SDSS-V layout, 20 seeded deadlocked cases at 2.0-3.5 mm
-(benchmarks/RESULTS.md, S10, whole-array re-runs): with a two-hop region and (greed 0.8,
-phobia 0.3), 17 of 20 cases resolved with the fold at 0.99-1.05 of the first run's (the
-search took 0.6-50 s a case, and its folds were 1.0-3.3 times the first run's).
+The re-runs come before the state-time search because they untangle most groups in a
+fraction of its time and without lengthening the fold, where the search's plans often
+do (benchmarks/HISTORY.md, "Code comments": rfp_twin.planners.rerun).
 
 Units: planner steps; wall time in s.
 """
@@ -74,8 +73,8 @@ PATIENCE = 4
 #: by then it has failed (a complete attempt that late would lengthen the fold by as
 #: much), and an attempt handed to the search with robots still stuck ends there. Its
 #: robots around the stuck ones go on stepping aside until then, so the cap is also how
-#: much such a plan can lengthen the fold: 1.25 made the folds at 3.5 mm a median 25 %
-#: longer than the search alone; 1.05 lost complete attempts at 2.5 mm.
+#: much such a plan can lengthen the fold: a larger cap lengthens the folds of the hard
+#: cases, a smaller one loses attempts that would have completed.
 STEP_CAP = 1.10
 
 #: Hops of greedy robots between a region and the ring that replays the first run: room
@@ -85,8 +84,8 @@ MARGIN_HOPS = 2
 MAX_MARGIN_HOPS = 4
 
 #: On arrays of at most this many robots (a whole run: 0.05-0.4 s), groups that their
-#: patches left stuck get the ladder again as whole-array runs around every group (the
-#: S10 re-runs), taken only when one completes: on the 500-robot layout at 3.0-3.5 mm,
+#: patches left stuck get the ladder again as whole-array runs around every group,
+#: taken only when one completes: on the 500-robot layout at 3.0-3.5 mm,
 #: neighbouring groups squeeze each other's patches and often need to move together.
 #: This ladder depends only on the first run, so it starts with the patches, in a thread
 #: of its own (the kernel releases the GIL: on a second core it costs no wall time while
@@ -94,12 +93,10 @@ MAX_MARGIN_HOPS = 4
 #: group: the same result as running it after them.
 WHOLE_ARRAY_ROBOTS = 2000
 
-#: Attempts at most of that whole-array ladder (the patches get ``attempts``). At 3.5 mm
-#: on the 500-robot layout its runs rarely complete and it is there for the attempt that
-#: leaves fewest robots stuck for the search; its sixth to eighth attempts (LADDER[5:],
-#: 0.15-0.25 s each) changed the plan in 1 of 40 seeds (seed 1, whose fold they made
-#: longer), and the whole plan stage took 8-13 % less without them; 4 attempts changed
-#: the plan of 4 seeds, lengthening the fold in 3 (benchmarks/RESULTS.md, S16).
+#: Attempts at most of that whole-array ladder (the patches get ``attempts``). On crowded
+#: arrays its runs rarely complete: it is there for the attempt that leaves fewest robots
+#: stuck for the search, which the first five rungs of :data:`LADDER` nearly always
+#: give; the later ones cost 0.15-0.25 s each and almost never change the plan.
 WHOLE_ATTEMPTS = 5
 
 #: One local kernel run: (robots (k,) int64 increasing, script (ptr, steps, angles) CSR

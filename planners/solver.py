@@ -96,9 +96,9 @@ class PlannerSettings:
     (in steps) is at most this fraction of the run's longest alpha travel retract beta
     first: their obvious move holds alpha until beta is at its destination, and when
     that move is blocked they move as usual. A retracted arm leaves its neighbours room
-    to turn, and those robots have the time to spare (Table 3 setting, 547 grid, 2.5 mm,
-    0.25 deg, seeds 0-9 at 0.85: median fold with acceleration limits 13.74 -> 13.28 s,
-    benchmarks/RESULTS.md, S15). fold_repairs : with ``beta_first``, whole runs at most
+    to turn, and those robots have the time to spare (on the Table 3 setting it shortens
+    the fold with acceleration limits; benchmarks/RESULTS.md). fold_repairs : with
+    ``beta_first``, whole runs at most
     per round that switch the rule of the robot blocking the last one's alpha, each
     kept if robots arrive sooner (:mod:`rfp_twin.planners.fold_repair`); 0 = none.
     """

@@ -40,7 +40,7 @@ from rfp_twin.planners.solver import (ALGORITHMS, DIRECTIONS, RESOLVERS, Planner
                                       plan_reconfiguration)
 from rfp_twin.planners.stepwise import array_max_displacement
 from rfp_twin.planners.targets import random_targets
-from rfp_twin.planners.timing import BACKENDS, DEFAULT_BACKEND
+from rfp_twin.planners.postprocess.timing import BACKENDS, DEFAULT_BACKEND
 from rfp_twin.twin.outcome import Outcome
 from rfp_twin.validation.checker2d import check_trajectory
 
@@ -59,16 +59,16 @@ FIELD_TARGET_SLACK_MM = 0.5
 PLANNER_KERNEL = "rfp_twin.planners.stepwise.kernel:run_stepwise_arrays"
 DELIVER_KERNELS = tuple("rfp_twin." + k for k in (
     "planners.plan:_build_paths", "planners.postprocess.limits:_scan",
-    "planners.simplify:_reversals", "planners.simplify:_simplify_plan",
-    "planners.smoothing:_average_kernel", "planners.smoothing:_moving_range",
-    "planners.timing.grouping:_pair_clearance_below",
-    "planners.postprocess.singles:_time_singles", "planners.smoothing:_evaluate_many",
-    "planners.timing.grid:knot_grid",
-    "planners.timing.kernel:topp_kernel", "planners.timing.law:law_times",
-    "planners.timing.law:_s_at", "planners.simplify:_simplify_columns",
-    "planners.timing.kinematics:pl_kinematics", "models.kinematics:forward",
+    "planners.postprocess.simplify:_reversals", "planners.postprocess.simplify:_simplify_plan",
+    "planners.postprocess.smoothing:_average_kernel", "planners.postprocess.smoothing:_moving_range",
+    "planners.postprocess.timing.grouping:_pair_clearance_below",
+    "planners.postprocess.singles:_time_singles", "planners.postprocess.smoothing:_evaluate_many",
+    "planners.postprocess.timing.grid:knot_grid",
+    "planners.postprocess.timing.kernel:topp_kernel", "planners.postprocess.timing.law:law_times",
+    "planners.postprocess.timing.law:s_at_times", "planners.postprocess.simplify:simplify_columns_kernel",
+    "planners.postprocess.timing.kinematics:pl_kinematics", "models.kinematics:forward",
     "validation.checker2d.kernel:_scan_pairs", "validation.checker2d.kernel:_record_pairs",
-    "planners.smoothing:_max_deviation"))
+    "planners.postprocess.smoothing:_max_deviation"))
 
 __all__ = ["ALL_ALGORITHMS", "FIELD_ALGORITHMS", "RESOLUTIONS", "PlanOptions", "Reconfiguration",
            "Outcome", "check_trajectory"]

@@ -22,7 +22,7 @@ robots whose annulus box meets it are splatted by a numba kernel (each robot vis
 only the ``(2 (a + b) / h)^2`` cells of its box), then the tile is tallied and dropped,
 so memory stays that of one tile plus the map, whatever the array size. The map keeps
 every ``stride``-th cell (at most ``MAP_PIXELS`` a side). (A scipy cKDTree count per
-cell was measured 100x slower on 12,852 robots.)
+cell is ~100x slower on 12,852 robots.)
 
 Rafts (layouts with a ``raft`` column, :mod:`rfp_twin.models.layout.rafts`): the
 *instrumented area* of a raft is the area of the union of its own robots' annuli, mm^2,

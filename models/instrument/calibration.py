@@ -51,6 +51,27 @@ WOK_COLUMNS = ("holeID", "holeType", "xWok", "yWok", "zWok",
                *(f"{a}{c}" for a in "ijk" for c in "xyz"))
 POSITIONER_COLUMNS = ("holeID", "positionerID", "alphaArmLen", "metX", "metY", "apX", "apY",
                       "bossX", "bossY", "alphaOffset", "betaOffset", "dx", "dy")
+
+#: Physical range of each robot's geometry in ``positionerTable.csv``, mm: column ->
+#: (low, high, what it rests on). Design values (coordio defaults): alpha arm 7.4,
+#: metrology fiber (14.314, 0), APOGEE (14.965, 0.376), BOSS (14.965, -0.376), alpha axis on
+#: the hole centre (dx = dy = 0). The SDSS-V calibrations (fps_calibrations 2025.12.04, APO
+#: and LCO flat woks, 500 robots each) spread: alphaArmLen 7.287..7.501 (sd 0.03); metX
+#: 14.240..15.069, apX / bossX 14.814..15.717 (one LCO robot's head measured 0.75 mm out);
+#: apY 0.090..0.430, bossY -0.593..-0.310, metY 0; dx -0.134..0.367, dy -0.509..0.254.
+#: The ranges hold every measured robot with room to spare, and refuse what no
+#: SDSS-V robot can be (an alpha arm of 70 mm, a fiber off its 3 mm-wide beta arm).
+PHYSICAL_RANGES_MM = {
+    "alphaArmLen": (6.9, 7.9, "design 7.4 mm +- 0.5 mm"),
+    "metX": (13.3, 15.8, "design 14.314 mm, about +- 1 mm"),
+    "apX": (13.9, 16.0, "design 14.965 mm, about +- 1 mm, short of the 16.2 mm tip"),
+    "bossX": (13.9, 16.0, "design 14.965 mm, about +- 1 mm, short of the 16.2 mm tip"),
+    "metY": (-1.0, 1.0, "design 0 mm, on the 3 mm-wide beta arm"),
+    "apY": (-1.0, 1.0, "design 0.376 mm, on the 3 mm-wide beta arm"),
+    "bossY": (-1.0, 1.0, "design -0.376 mm, on the 3 mm-wide beta arm"),
+    "dx": (-1.0, 1.0, "alpha axis within 1 mm of its hole centre (measured <= 0.51 mm)"),
+    "dy": (-1.0, 1.0, "alpha axis within 1 mm of its hole centre (measured <= 0.51 mm)"),
+}
 FIDUCIAL_COLUMNS = ("holeID", "id", "xWok", "yWok", "zWok")
 
 
@@ -113,7 +134,9 @@ def read_calibration(folder: str | Path) -> Calibration:
     Raises
     ------
     CalibrationError
-        A missing file or column; NaN or text in a number; a repeated hole or robot id; a
+        A missing file or column; NaN or text in a number; a robot's alpha arm, fiber
+        position or base offset outside its physical range (:data:`PHYSICAL_RANGES_MM`);
+        a repeated hole or robot id; a
         robot hole or fiducial hole not in the wok table, or of the wrong type; i, j, k not
         unit or not orthogonal; a positioner of the fiber assignments missing from the
         positioner table. One line naming the file, row and field with the allowed values.
@@ -153,10 +176,11 @@ def read_calibration(folder: str | Path) -> Calibration:
         rows[r] = row_of[h]
     hole_types = np.array([types[k] for k in rows], dtype=object)
 
+    geom = {name: _physical(pos, name, robot_ids) for name in PHYSICAL_RANGES_MM}
     fibers = np.full((pos.n_rows, 3, 2), np.nan)
-    fibers[:, 0] = np.column_stack([pos.numbers("metX", 0.1, 100.0), pos.numbers("metY", -10, 10)])
-    boss = np.column_stack([pos.numbers("bossX", 0.1, 100.0), pos.numbers("bossY", -10, 10)])
-    apogee = np.column_stack([pos.numbers("apX", 0.1, 100.0), pos.numbers("apY", -10, 10)])
+    fibers[:, 0] = np.column_stack([geom["metX"], geom["metY"]])
+    boss = np.column_stack([geom["bossX"], geom["bossY"]])
+    apogee = np.column_stack([geom["apX"], geom["apY"]])
     for r, t in enumerate(hole_types):
         fibers[r, 1] = boss[r]
         if "apogee" in ROBOT_HOLE_TYPES[t]:
@@ -179,13 +203,26 @@ def read_calibration(folder: str | Path) -> Calibration:
     return Calibration(
         folder=folder, robot_ids=robot_ids, robot_holes=np.array(robot_holes, dtype=object),
         robot_hole_types=hole_types, hole_xyz=xyz[rows], frames=frames[rows],
-        base_offset=np.column_stack([pos.numbers("dx", -5.0, 5.0), pos.numbers("dy", -5.0, 5.0)]),
-        alpha_len=pos.numbers("alphaArmLen", 0.1, 100.0), fibers=fibers,
+        base_offset=np.column_stack([geom["dx"], geom["dy"]]),
+        alpha_len=geom["alphaArmLen"], fibers=fibers,
         angle_offset=np.column_stack([pos.numbers("alphaOffset", -180, 180),
                                       pos.numbers("betaOffset", -180, 180)]),
         fiducial_names=np.array(fid_names, dtype=object),
         fiducial_holes=np.array(fid_holes, dtype=object), fiducial_xyz=fid_xyz,
         gfa_segments=GFA_SEGMENTS_WOK.copy())
+
+
+def _physical(table: Table, name: str, robot_ids: np.ndarray) -> np.ndarray:
+    """Column ``name`` of the positioner table, (r,) float64 mm, each value within its
+    :data:`PHYSICAL_RANGES_MM`; the error names file, line, robot, field and range."""
+    values = table.numbers(name)
+    lo, hi, why = PHYSICAL_RANGES_MM[name]
+    bad = np.flatnonzero((values < lo) | (values > hi))
+    if bad.size:
+        r = int(bad[0])
+        raise CalibrationError(f"{table.where(r)}: robot {int(robot_ids[r])}: field {name!r} = "
+                               f"{values[r]:g} mm; allowed: [{lo:g}, {hi:g}] mm ({why})")
+    return values
 
 
 def _check_assignments(path: Path, robot_ids: set[int]) -> None:

@@ -192,6 +192,19 @@ def robot_collision_arrays(spec, layout, buffer_mm: float):
     return alpha_len, seg_start, seg_end, buffer
 
 
+def production_body_layout(layout):
+    """``layout`` without its fiber columns (a new Layout named ``<name>-production``):
+    every robot's beta collision segment is then the spec's, the body SDSS-V's production
+    planner gives every robot, while its base, alpha arm, buffer, offsets and the
+    obstacles stay. Checking a trajectory on it measures clearance under production's
+    rule (:func:`robot_collision_arrays` explains why ours contains it)."""
+    import dataclasses
+
+    fibers = {c for cols in FIBER_COLUMNS.values() for c in cols}
+    extra = {k: v for k, v in layout.extra.items() if k not in fibers}
+    return dataclasses.replace(layout, extra=extra, name=f"{layout.name}-production")
+
+
 def obstacle_arrays(spec, layout):
     """The obstacles (non-robot rows, layout order) as buffered segments.
 

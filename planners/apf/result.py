@@ -3,7 +3,7 @@
 The kernel (:mod:`rfp_twin.planners.apf.kernel`) records breakpoints (robot, axis, Euler step,
 angle rad); :func:`_trajectory` turns them into a :class:`rfp_twin.models.trajectory.Trajectory`
 (deg, s), sending axes with more than ``max_points`` breakpoints through
-:func:`rfp_twin.planners.simplify.simplify_axis` (RDP, tolerance raised until they fit).
+:func:`rfp_twin.planners.postprocess.simplify.simplify_axis` (RDP, tolerance raised until they fit).
 :func:`apf_plan` turns a result into a :class:`rfp_twin.planners.plan.Plan` on a step clock
 ``step_s = dt`` with the solver's metric keys. Angles in deg, times in s, lengths in mm.
 """
@@ -17,7 +17,7 @@ from rfp_twin.models.errors import SpecError, field_error
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.apf.settings import DEG, ApfSettings
 from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, Plan
-from rfp_twin.planners.simplify import simplify_axis
+from rfp_twin.planners.postprocess.simplify import simplify_axis
 
 #: Why a run stopped (``ApfResult.stop_reason``), by the kernel's stop code.
 STOP_REASONS = ("converged", "stalled", "max_time")

@@ -1,8 +1,8 @@
 """Per-group work of the pipeline: time, sample and simplify one group; assemble the groups.
 
-A group (robots sharing one path parameter, :func:`rfp_twin.planners.timing.interaction_groups`)
-is timed by :func:`rfp_twin.planners.timing.time_group`, sampled every ``sample_s`` seconds and
-each of its ``2k`` axes reduced by RDP (:func:`rfp_twin.planners.simplify.simplify_columns`);
+A group (robots sharing one path parameter, :func:`rfp_twin.planners.postprocess.timing.interaction_groups`)
+is timed by :func:`rfp_twin.planners.postprocess.timing.time_group`, sampled every ``sample_s`` seconds and
+each of its ``2k`` axes reduced by RDP (:func:`rfp_twin.planners.postprocess.simplify.simplify_columns`);
 a group whose piecewise-linear output exceeds the limits anyway (rounding) is slowed
 down uniformly (:func:`time_and_simplify`). :func:`assemble` places the groups in time
 (aligned on their end or their start) and builds the firmware trajectory, with the
@@ -19,9 +19,9 @@ import numpy as np
 
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import Plan
-from rfp_twin.planners.simplify import simplify_columns
-from rfp_twin.planners.smoothing import SmoothPath
-from rfp_twin.planners.timing import TimeLaw, pl_kinematics, time_group
+from rfp_twin.planners.postprocess.simplify import simplify_columns
+from rfp_twin.planners.postprocess.smoothing import SmoothPath
+from rfp_twin.planners.postprocess.timing import TimeLaw, pl_kinematics, time_group
 
 __all__ = ["TimedGroup", "time_and_simplify", "group_offsets", "assemble"]
 

@@ -2,7 +2,7 @@
 
 Pipeline (:func:`postprocess`):
 
-0. **Pre-simplify** (:func:`rfp_twin.planners.simplify.simplify_plan`): each robot's stepwise
+0. **Pre-simplify** (:func:`rfp_twin.planners.postprocess.simplify.simplify_plan`): each robot's stepwise
    breakpoints are reduced by RDP within ``presimplify_deg`` on both axes (at equal
    plan step; ``wiggle_presimplify_deg`` for the robots whose path turns back more than
    :data:`WIGGLE_REVERSALS` times), so the smoothed path of the reduced plan is within
@@ -10,24 +10,24 @@ Pipeline (:func:`postprocess`):
    increase a sup-norm difference). Markov plans have a breakpoint nearly every step; their
    one-step wiggles cost knots and gridpoints, and time where the wiggles are wider
    than the window.
-1. **Smooth** (:mod:`rfp_twin.planners.smoothing`): the running-average velocity filter turns
+1. **Smooth** (:mod:`rfp_twin.planners.postprocess.smoothing`): the running-average velocity filter turns
    each robot's stepwise path into a C1 path ``q_i(s)`` of the plan step ``s``. The
    default window spans the time an axis needs to reach full speed (``v / a``;
-   :func:`rfp_twin.planners.smoothing.window_for_limits`, 200 steps for SDSS-V at 0.1 deg):
+   :func:`rfp_twin.planners.postprocess.smoothing.window_for_limits`, 200 steps for SDSS-V at 0.1 deg):
    starts and stops then cost no slow-down, and one-step wiggles vanish.
-2. **Group** (:mod:`rfp_twin.planners.timing`): neighbour pairs whose clearance falls below
+2. **Group** (:mod:`rfp_twin.planners.postprocess.timing`): neighbour pairs whose clearance falls below
    ``interaction_mm`` at some step of the plan are edges; each connected component
    shares one path parameter, the other robots are timed alone.
-3. **Time** (:mod:`rfp_twin.planners.timing`): time-optimal ``s(t)`` per group (TOPP-RA, by the
+3. **Time** (:mod:`rfp_twin.planners.postprocess.timing`): time-optimal ``s(t)`` per group (TOPP-RA, by the
    ``toppra`` library or the numba kernel: ``backend``) under the spec's per-axis
    velocity and acceleration limits, from rest to rest. Groups are
    aligned on their end: every robot arrives when the slowest group does, as in the
    plan every robot arrives on its last step.
-4. **Sample and simplify** (:mod:`rfp_twin.planners.simplify`): each group is sampled every
+4. **Sample and simplify** (:mod:`rfp_twin.planners.postprocess.simplify`): each group is sampled every
    ``sample_s`` seconds and every axis reduced by Ramer-Douglas-Peucker to at most
    ``max_points`` points within ``tolerance_deg`` of the samples. The kept points are
    exact samples of the timed path, so their slopes and three-point accelerations (the
-   definitions of :func:`rfp_twin.planners.timing.pl_kinematics`) are within the limits; a group
+   definitions of :func:`rfp_twin.planners.postprocess.timing.pl_kinematics`) are within the limits; a group
    whose measured values exceed them anyway (rounding) is slowed down uniformly.
 5. **Verify**: the ``verifier`` handed in by the caller (the pipeline passes the
    independent 2D checker of ``validation/``; planners never import it) at ``buffer_mm -
@@ -36,7 +36,7 @@ Pipeline (:func:`postprocess`):
    with a fiducial, means the smoothing cut a corner of the plan too close to the
    other: the window of the robots involved is narrowed (by sqrt(2) a level) **only on
    the plan steps of the collision**, plus the margins the wider windows need
-   (:mod:`rfp_twin.planners.smoothing_local`, :func:`.verification.narrow_locally`;
+   (:mod:`rfp_twin.planners.postprocess.smoothing_local`, :func:`.verification.narrow_locally`;
    stretching it over every step in which the pair stays within 0.5 mm in the plan gave
    a p95 duration ratio of 1.214 instead of 1.126, greedy + search at 2.5 mm);
    the rest of their paths keeps the full window, so the time law slows down only
@@ -78,10 +78,10 @@ from rfp_twin.planners.postprocess.singles import time_singles
 from rfp_twin.planners.postprocess.report import PostprocessReport, build_report, slowest_groups
 from rfp_twin.planners.postprocess.verification import (LOCAL_NARROWING, near_stretch, repair,
                                                         verify_neighbours)
-from rfp_twin.planners.simplify import direction_reversals, simplify_plan
-from rfp_twin.planners.smoothing import METHODS, SmoothPath, smooth_plan, window_for_limits
-from rfp_twin.planners.smoothing_local import WindowRegions, smooth_plan_local
-from rfp_twin.planners.timing import BACKENDS, DEFAULT_BACKEND, interaction_groups, interaction_pairs
+from rfp_twin.planners.postprocess.simplify import direction_reversals, simplify_plan
+from rfp_twin.planners.postprocess.smoothing import METHODS, SmoothPath, smooth_plan, window_for_limits
+from rfp_twin.planners.postprocess.smoothing_local import WindowRegions, smooth_plan_local
+from rfp_twin.planners.postprocess.timing import BACKENDS, DEFAULT_BACKEND, interaction_groups, interaction_pairs
 
 #: ``verifier(trajectory, spec, layout, buffer_mm, *, focus_ids=None) -> report`` (see
 #: :func:`postprocess`; ``focus_ids``: check only the pairs with one of these robots).
@@ -95,37 +95,30 @@ __all__ = ["Verifier", "postprocess", "DEFAULT_BUDGET_MM", "DEFAULT_TOLERANCE_DE
 DEFAULT_BUDGET_MM = 0.03
 #: Firmware limit of (angle, time) points per axis (Sayres 2021 Sect. 6).
 DEFAULT_MAX_POINTS = 1024
-#: RDP tolerance, deg. Measured on the 500-robot SDSS-V layout (benchmarks/RESULTS.md):
-#: 0.02 / 0.05 / 0.1 / 0.2 deg give a median of 37 / 22 / 18 / 12 points per axis at the
-#: same fold time and verification rounds. 0.1 deg moves a point of the beta collision
+#: RDP tolerance, deg: fewer points per axis at a larger tolerance, the same fold time
+#: and verification rounds (``benchmarks/bench_postprocess.py``). 0.1 deg moves a point of the beta collision
 #: segment by at most (7.4 + 2 * 14.7) mm * 0.1 deg = 0.064 mm, small next to the
 #: smoothing itself; robots near contact get it halved by the verification loop.
 DEFAULT_TOLERANCE_DEG = 0.1
-#: RDP tolerance of the stepwise plan before smoothing, deg (0: off). Measured on the
-#: 500-robot SDSS-V layout, step 0.1 deg, 2.0 mm (benchmarks/RESULTS.md): Markov plans
-#: ~980k breakpoints -> ~200k, post-processing 2.7-3.2 s -> 1.4-1.8 s and folds 2.6-6.9 s
-#: shorter (the wiggles are gone); greedy plans 14-20k -> 3-6k breakpoints, the same
-#: time, folds 0.1-0.4 s shorter. 0.2 deg moves a point of the beta collision segment by at
+#: RDP tolerance of the stepwise plan before smoothing, deg (0: off): a Markov plan's
+#: wiggles are cut before they are smoothed and timed (a few times fewer breakpoints,
+#: faster post-processing and shorter folds). 0.2 deg moves a point of the beta collision segment by at
 #: most 0.13 mm before smoothing; robots whose local window is at its floor and still come
 #: too close get it halved.
 DEFAULT_PRESIMPLIFY_DEG = 0.2
 #: Robots whose stepwise path turns back more often than this on its axes
-#: (:func:`rfp_twin.planners.simplify.direction_reversals`) are *wiggly*: Markov random
-#: walks, the robots of a deadlock re-run (:mod:`rfp_twin.planners.rerun`).
+#: (:func:`rfp_twin.planners.postprocess.simplify.direction_reversals`) are *wiggly*: Markov random
+#: walks, the robots of a deadlock re-run.
 WIGGLE_REVERSALS = 20
 #: Pre-simplification tolerance of the wiggly robots, deg: their back-and-forth
-#: excursions are cut before smoothing instead of being smoothed and timed. Measured on
-#: the 500-robot SDSS-V layout, 20 seeds, 2.5 mm (benchmarks/RESULTS.md, S10): greedy +
-#: re-run/search firmware-ready fold median 14.12 -> 13.79 s, max 15.39 -> 15.14 s; Markov
-#: 24.80 -> 19.26 s. 1 deg left collisions the verification rounds could not repair on
-#: one seed in 20. The verification at buffer - budget still decides, as for every path.
+#: excursions are cut before smoothing instead of being smoothed and timed, which
+#: shortens their folds; a much larger tolerance leaves collisions the verification
+#: rounds cannot repair. The verification at buffer - budget still decides, as for
+#: every path.
 DEFAULT_WIGGLE_PRESIMPLIFY_DEG = 0.5
 #: Pairs whose clearance falls below this at some step of the plan share one path
 #: parameter, mm. Robots that share one slow down for each other's corners, so smaller
 #: groups are faster; pairs timed apart that meet anyway are merged by the verification.
-#: 500-robot SDSS-V layout, greedy + search at 2.5 mm, 20 seeds, with local narrowing
-#: (benchmarks/RESULTS.md): 1 mm -> 0.3 mm, duration / stepwise p95 1.266 -> 1.247, the
-#: same median; 0.3 mm with the sqrt(2) narrowing and the 0.5 mm stretch: p95 1.214.
 DEFAULT_INTERACTION_MM = 0.3
 ALIGNMENTS = ("end", "start")
 #: ``progress`` is called every this many groups timed (and after the last).
@@ -182,8 +175,8 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     wiggle_presimplify_deg : the same for the robots whose path turns back more than
         :data:`WIGGLE_REVERSALS` times, deg (at least ``presimplify_deg`` is used)
     smoothing, window_steps : method and initial window (plan steps) of
-        :func:`rfp_twin.planners.smoothing.smooth_plan` [default window:
-        :func:`rfp_twin.planners.smoothing.window_for_limits` of the spec and the plan's step]
+        :func:`rfp_twin.planners.postprocess.smoothing.smooth_plan` [default window:
+        :func:`rfp_twin.planners.postprocess.smoothing.window_for_limits` of the spec and the plan's step]
     progress : called as ``progress(groups_timed, groups_to_time)`` while each round times
         its groups (the first round: every group; later rounds: the repaired ones)
     interaction_mm : clearance below which two robots share one path parameter, mm
@@ -193,7 +186,7 @@ def postprocess(plan: Plan, geom, buffer_mm: float | None = None, *,
     backend : "numba" (default: our TOPP-RA kernel) or "toppra" (the library, the same
         laws ~10x slower, as a cross-check; a group it finds no solution for is timed by
         the kernel and counted in the report's ``timing_fallbacks``)
-        (:func:`rfp_twin.planners.timing.time_group`)
+        (:func:`rfp_twin.planners.postprocess.timing.time_group`)
     max_retries : verification rounds after the first
     verifier : ``verifier(trajectory, spec, layout, buffer_mm, *, focus_ids=None) -> report``
         with ``ok``, ``collisions``, ``min_clearance_mm`` and ``merged_with(newer_report)``

@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 
 from rfp_twin.planners.postprocess.groups import group_offsets
-from rfp_twin.planners.smoothing import SmoothPath, plan_deviation
-from rfp_twin.planners.timing import pl_kinematics
+from rfp_twin.planners.postprocess.smoothing import SmoothPath, plan_deviation
+from rfp_twin.planners.postprocess.timing import pl_kinematics
 
 __all__ = ["TimedPath", "PostprocessReport", "build_report"]
 
@@ -68,7 +68,7 @@ class PostprocessReport:
 
     ``max_speed_deg_s`` / ``max_accel_deg_s2`` are measured on the returned
     piecewise-linear trajectory (slope; three-point acceleration, see
-    :func:`rfp_twin.planners.timing.pl_kinematics`), per axis (alpha, beta).
+    :func:`rfp_twin.planners.postprocess.timing.pl_kinematics`), per axis (alpha, beta).
     ``stage_seconds`` holds smooth, group, time, simplify, verify and total (retries
     included in each stage). ``max_slowdown`` is the largest uniform slow-down applied to
     a group to keep its piecewise-linear output within the limits (1 = none; a value

@@ -9,15 +9,15 @@ the same :class:`~rfp_twin.planners.postprocess.groups.TimedGroup` values bit fo
 (the same operations in the same order; a test compares every array).
 
 What the kernel does per robot, as the per-group path does with the ``numba`` backend:
-the grid (:func:`rfp_twin.planners.timing.grid.knot_grid`, as ``group_grid``: the knots
+the grid (:func:`rfp_twin.planners.postprocess.timing.grid.knot_grid`, as ``group_grid``: the knots
 over the moving span, curved intervals cut at ``grid_steps``, straight ones by their ramp zones), the
-TOPP-RA law (:func:`rfp_twin.planners.timing.kernel.topp_kernel`, limits times
+TOPP-RA law (:func:`rfp_twin.planners.postprocess.timing.kernel.topp_kernel`, limits times
 ``limit_margin``), samples every ``sample_s`` seconds clipped to the joint limits, RDP on
-both axes (:func:`rfp_twin.planners.simplify.simplify_columns`) and the uniform slow-down
+both axes (:func:`rfp_twin.planners.postprocess.simplify.simplify_columns`) and the uniform slow-down
 that keeps the piecewise-linear result within the limits. A robot the kernel cannot
 finish alone is marked and left to the per-group path: one that never moves (a static
 law) and one whose law crawls across an interval (the per-group path then refines the
-grid, :func:`rfp_twin.planners.timing.group._stopped_inside`).
+grid, :func:`rfp_twin.planners.postprocess.timing.group._stopped_inside`).
 
 Units: plan steps, degrees, seconds.
 """
@@ -30,13 +30,13 @@ from numba import njit
 
 from rfp_twin.models.second_thread import second_thread
 from rfp_twin.planners.postprocess.groups import TimedGroup
-from rfp_twin.planners.simplify import _simplify_columns
-from rfp_twin.planners.smoothing import SmoothPath, eval_robot
-from rfp_twin.planners.timing.grid import STRAIGHT_STEPS, knot_grid
-from rfp_twin.planners.timing.group import _CRAWL_SD, LIMIT_MARGIN
-from rfp_twin.planners.timing.kernel import SD_CAP, topp_kernel
-from rfp_twin.planners.timing.kinematics import pl_kinematics
-from rfp_twin.planners.timing.law import TimeLaw, _s_at, law_times
+from rfp_twin.planners.postprocess.simplify import simplify_columns_kernel
+from rfp_twin.planners.postprocess.smoothing import SmoothPath, eval_robot
+from rfp_twin.planners.postprocess.timing.grid import STRAIGHT_STEPS, knot_grid
+from rfp_twin.planners.postprocess.timing.group import CRAWL_SD, LIMIT_MARGIN
+from rfp_twin.planners.postprocess.timing.kernel import SD_CAP, topp_kernel
+from rfp_twin.planners.postprocess.timing.kinematics import pl_kinematics
+from rfp_twin.planners.postprocess.timing.law import TimeLaw, s_at_times, law_times
 
 __all__ = ["time_singles"]
 
@@ -112,7 +112,7 @@ def _time_singles(ptr, knots, coef, robots, s_range, vmax, amax, vlim, alim, sd_
         sd = np.sqrt(np.maximum(x, 0.0))
         crawl = False
         for j in range(G - 1):
-            if max(sd[j], sd[j + 1]) < _CRAWL_SD:
+            if max(sd[j], sd[j + 1]) < CRAWL_SD:
                 crawl = True
                 break
         T = t_law[G - 1]
@@ -127,7 +127,7 @@ def _time_singles(ptr, knots, coef, robots, s_range, vmax, amax, vlim, alim, sd_
             t[j] = j * sample_s
         t[S - 1] = T
         s = np.empty(S)
-        _s_at(grid, sd, u, t_law, t, s)
+        s_at_times(grid, sd, u, t_law, t, s)
         Y = np.empty((S, 2))
         for j in range(S):
             eval_robot(ptr, knots, coef, i, s[j], 0, buf)
@@ -145,7 +145,7 @@ def _time_singles(ptr, knots, coef, robots, s_range, vmax, amax, vlim, alim, sd_
         tols[1] = tol[i]
         keep = np.empty((S, 2), dtype=np.bool_)
         used = np.empty(2)
-        _simplify_columns(t, Y, tols, max_points, keep, used)
+        simplify_columns_kernel(t, Y, tols, max_points, keep, used)
         ratio = 1.0
         for c in range(2):
             cnt = 0

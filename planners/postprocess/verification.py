@@ -22,8 +22,8 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.trajectory import Trajectory
-from rfp_twin.planners.smoothing_local import WindowRegions
-from rfp_twin.planners.timing.grouping import pair_clearance
+from rfp_twin.planners.postprocess.smoothing_local import WindowRegions
+from rfp_twin.planners.postprocess.timing.grouping import pair_clearance
 
 __all__ = ["LOCAL_NARROWING", "verify_neighbours", "subset_trajectory", "repair", "narrow_locally",
            "near_stretch"]
@@ -32,17 +32,12 @@ __all__ = ["LOCAL_NARROWING", "verify_neighbours", "subset_trajectory", "repair"
 _MIN_WINDOW_STEPS = 1.0
 _MIN_TOLERANCE_DEG = 1e-3
 #: Factor between the windows of two narrowing levels (w, w / f, w / f^2, ...). Smaller
-#: steps slow the law down less where they suffice, at the cost of more rounds: on the
-#: 500-robot SDSS-V layout (greedy + search, 2.5 mm, 20 seeds) f = 2 / sqrt(2) / 1.25 gave
-#: duration / stepwise p95 1.247 / 1.218 / 1.222 with 2-3 / 3-4 / 4-6 rounds.
+#: steps slow the law down less where they suffice, at the cost of more rounds.
 LOCAL_NARROWING = math.sqrt(2.0)
 #: A narrowed stretch of level 1 covers the steps in which the colliding pair is closer
 #: than this in the plan, mm (this / f at level 2, ...), plus the reach margins of
-#: :func:`narrow_locally`. 0: the collision's own steps only. Greedy + search at 2.5 mm
-#: (20 seeds, S8): 1 mm p95 1.218 (S5), 0.5 mm 1.214, 0.3 mm 1.208, 0.2 mm 1.186, 0.1 mm
-#: 1.139, 0.05 and 0 mm 1.126 (median 1.071 -> 1.066, max 1.232 -> 1.204); greedy at
-#: 2.0 mm p95 1.108 -> 1.101, Markov at 2.0 / 2.5 mm unchanged (1.093 / 1.158). A long
-#: stretch slowed the time law over steps where the pair never came close after smoothing.
+#: :func:`narrow_locally`. 0: the collision's own steps only: a longer stretch slows the
+#: time law over steps where the pair never comes close after smoothing.
 _NEAR_MM = 0.0
 #: Factor by which a colliding robot's window (then tolerance) shrinks per retry.
 _TIGHTEN = 2.0
@@ -145,7 +140,7 @@ def narrow_locally(regions: WindowRegions, i: int, step_span: Callable, collisio
     in which the pair stays within ``_NEAR_MM / f^(k-1)`` of contact in the plan (a
     corner of window ``w`` moves the path by at most ``|slope change| w / 8``, so the
     margin shrinks with the window), plus ``w_{k-1} / 2 + w_k`` on each side
-    (:mod:`rfp_twin.planners.smoothing_local`)."""
+    (:mod:`rfp_twin.planners.postprocess.smoothing_local`)."""
     u0, u1 = step_span(collision, 0.0)
     k = regions.level(i, u0, u1)
     f = regions.factor

@@ -28,12 +28,10 @@ deadlocked robot goes from its target, at step 0, to the folded state):
   search); start-stop cycles are unlimited: stepwise plans stop and restart freely and
   post-processing smooths them.
 
-What made it work (deadlocked groups of the first greedy run on the 547 grid that the
-search resolved; 2.5 mm / 0.25 deg seeds 0-7 or 0-15, 3.5 mm / 0.1 deg seeds 0-2, 29
-groups): Sabater's fixed order with reorder-on-failure, 13 x 13 grid, lead-in or step-0
-start: 80 % / 62 %; plus recruiting blocking neighbours: 95 % / 76 %; the search over
-priorities with 25 x 25 grids, 300 paths and 200 000 nodes per robot: - / 90 %.
-Whole-plan figures, with replacement where the search fails: benchmarks/RESULTS.md.
+Recruiting the blocking neighbours and searching over priorities each raise the share
+of groups resolved over Sabater's fixed order (benchmarks/HISTORY.md, "Code comments":
+rfp_twin.planners.resolve_search.resolve). Whole-plan figures, with replacement where
+the search fails: benchmarks/RESULTS.md.
 
 The collision test on the step clock, and why the merged plan stays collision-free:
 :mod:`rfp_twin.planners.resolve_search.world`.

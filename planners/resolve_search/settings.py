@@ -39,11 +39,9 @@ class SearchResolveSettings:
         motion it made before it got stuck (latest first)
     depart_at_start : bool, one of them is step 0 (leave that motion at once). Off by
         default: each group is also searched from step 0 without lead-ins (the other
-        pass of :func:`rfp_twin.planners.resolve_search.resolve.search_group`). On the
-        500-robot layout at 3.5 mm (seeds 1-12) none of 160 single-robot plans that found
-        a trajectory found it there (140, 18 and 2 at the first three departures), while
-        the failing plans spent 7.5 of their 28.6 s on it; the 547 grid at 2.5 mm (seeds
-        0-19): 8 of 8 at the first departure
+        pass of :func:`rfp_twin.planners.resolve_search.resolve.search_group`), and a
+        single-robot plan that finds a trajectory almost always finds it at the first
+        departures, while failing plans spend a quarter of their time on this one
     search : "sweep" (earliest arrival, one time layer at a time) | "dfs" (Sabater's
         depth-first search); see :class:`rfp_twin.planners.roadmap.RoadmapSettings`
     step0_first : search each group from step 0 first, then with the lead-ins (False:

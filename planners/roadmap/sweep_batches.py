@@ -13,10 +13,8 @@ tried, the nodes, the blocker counts and the budget are those of the one-by-one 
 only the diagnostic count of configuration checks differs.
 
 A robot that is boxed in fails every path of every departure (1,200 sweeps, most of
-them ending within a few layers). On the 500-robot layout at 3.5 mm (seed 5, 29 such
-plans, 15,452 paths) they took 7.45 s one path at a time and 4.0-4.4 s in batches, with
-the compiled edge checks and path positions (``benchmarks/bench_plan_stage.py``;
-benchmarks/RESULTS.md, S13).
+them ending within a few layers): those failing plans are where batches on two cores
+save most (``benchmarks/bench_plan_stage.py`` reports their paths and seconds).
 
 Units: joint angles as the arm's; time in the arm's units (planner steps here).
 """

@@ -106,3 +106,36 @@ def test_a_missing_file_or_column_is_named(folder):
     (folder / "positionerTable.csv").write_text(text)
     with pytest.raises(CalibrationError, match=r"positionerTable.csv:1: field 'alphaArmLen' is missing"):
         read_calibration(folder)
+
+
+@pytest.mark.parametrize("field, value, allowed", [
+    ("alphaArmLen", "70", "[6.9, 7.9] mm (design 7.4 mm +- 0.5 mm)"),
+    ("metX", "4.3", "[13.3, 15.8] mm"),
+    ("bossY", "-2.5", "[-1, 1] mm"),
+    ("apX", "16.3", "[13.9, 16] mm"),
+    ("dx", "3", "[-1, 1] mm"),
+    ("dy", "-1.2", "[-1, 1] mm"),
+])
+def test_a_robot_outside_its_physical_range_is_named(folder, field, value, allowed):
+    """A 70 mm alpha arm (or a fiber off the beta arm, an axis 3 mm off its hole) is no
+    SDSS-V robot: one line naming file, line, robot, field and the range."""
+    path = folder / "positionerTable.csv"
+    robot = rows(path)[5]["positionerID"]
+    edit(path, 5, field, value)
+    with pytest.raises(CalibrationError) as info:
+        read_calibration(folder)
+    msg = str(info.value)
+    assert msg.startswith(f"{path}:7: robot {robot}: field '{field}' = {float(value):g} mm; "
+                          f"allowed: {allowed}"), msg
+    assert "\n" not in msg
+
+
+def test_the_physical_ranges_hold_every_measured_robot():
+    from rfp_twin.models.instrument.calibration import PHYSICAL_RANGES_MM
+
+    for name in sorted(INSTRUMENTS):
+        table = rows(calibration_folder(name) / "positionerTable.csv")
+        for field, (lo, hi, _) in PHYSICAL_RANGES_MM.items():
+            values = np.array([float(r[field]) for r in table])
+            # every measured value inside, at least 0.2 mm from either end
+            assert lo + 0.2 <= values.min() and values.max() <= hi - 0.2, (name, field)

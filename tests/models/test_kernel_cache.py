@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from rfp_twin.models.kernel_cache import cached_signatures, kernel_by_name, preload_cached
-from rfp_twin.planners.timing.law import law_times
+from rfp_twin.planners.postprocess.timing.law import law_times
 from rfp_twin.twin.pipeline import DELIVER_KERNELS, PLANNER_KERNEL
 
-LAW_TIMES = "rfp_twin.planners.timing.law:law_times"
+LAW_TIMES = "rfp_twin.planners.postprocess.timing.law:law_times"
 
 
 def test_the_cache_holds_the_signature_a_call_compiled():
@@ -24,7 +24,7 @@ def test_the_cache_holds_the_signature_a_call_compiled():
 def test_names_that_are_not_kernels_are_refused():
     assert kernel_by_name(LAW_TIMES) is law_times
     with pytest.raises(LookupError, match="TimeLaw"):
-        kernel_by_name("rfp_twin.planners.timing.law:TimeLaw")
+        kernel_by_name("rfp_twin.planners.postprocess.timing.law:TimeLaw")
     with pytest.raises(ModuleNotFoundError):
         kernel_by_name("rfp_twin.no_such_module:f")
 
@@ -40,11 +40,11 @@ def test_a_fresh_process_gets_the_kernel_loaded_without_calling_it():
     code = (
         "import time\n"
         "from rfp_twin.models.kernel_cache import preload_cached\n"
-        "from rfp_twin.planners.timing.law import law_times\n"
+        "from rfp_twin.planners.postprocess.timing.law import law_times\n"
         "assert not law_times.overloads\n"
         "t = time.perf_counter()\n"
         # waits for a kernel nobody loads, until released
-        f"p = preload_cached(['{LAW_TIMES}'], after='rfp_twin.planners.timing.law:_s_at')\n"
+        f"p = preload_cached(['{LAW_TIMES}'], after='rfp_twin.planners.postprocess.timing.law:s_at_times')\n"
         "time.sleep(0.3)\n"
         "waiting = len(law_times.overloads)\n"
         "p.release()\n"

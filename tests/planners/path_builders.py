@@ -6,8 +6,8 @@ from functools import lru_cache
 import numpy as np
 
 from rfp_twin.planners.plan import Plan
-from rfp_twin.planners.smoothing import smooth_plan, window_for_limits
-from rfp_twin.planners.timing import TimeLaw, interaction_groups, interaction_pairs
+from rfp_twin.planners.postprocess.smoothing import smooth_plan, window_for_limits
+from rfp_twin.planners.postprocess.timing import TimeLaw, interaction_groups, interaction_pairs
 from tests.planners.conftest import make_geom, plan_random
 
 #: SDSS-V axis limits, deg/s and deg/s^2.

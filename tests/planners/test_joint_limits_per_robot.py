@@ -120,7 +120,7 @@ def test_the_search_roadmap_uses_the_robots_own_range():
 def test_postprocess_refuses_a_plan_outside_the_robots_range():
     from rfp_twin.planners.postprocess import postprocess
     from rfp_twin.validation.checker2d import check_trajectory
-    from tests.planners.test_postprocess_pipeline import chase_plan
+    from tests.planners.postprocess.test_pipeline import chase_plan
 
     plan, nominal = chase_plan()                   # both robots at beta 0 throughout
     lay = nominal.layout

@@ -1,5 +1,5 @@
 """Per-robot geometry in the deadlock search (planners/resolve_search), its use by the
-roadmap planners, and the post-processing's interaction grouping (planners/timing/grouping.py).
+roadmap planners, and the post-processing's interaction grouping (planners/postprocess/timing/grouping.py).
 
 Each test builds a tiny layout whose ``extra`` columns give one robot its own alpha
 length or buffer, or an obstacle its own shape or keep-out radius, and checks against a
@@ -25,7 +25,7 @@ from rfp_twin.models.robot import load_spec
 from rfp_twin.planners.plan import REACHED, Plan
 from rfp_twin.planners.resolve_search import AlphaBetaWorld, PathSet, trim_tails
 from rfp_twin.planners.roadmap import ArmTrajectory
-from rfp_twin.planners.timing.grouping import (_pair_clearance_below, interaction_pairs,
+from rfp_twin.planners.postprocess.timing.grouping import (_pair_clearance_below, interaction_pairs,
                                                pair_clearance)
 
 SPEC = load_spec("sdss-v")

@@ -10,7 +10,7 @@ from rfp_twin.models.errors import RfpError
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.models.trajectory import Trajectory
-from rfp_twin.planners.timing import pl_kinematics
+from rfp_twin.planners.postprocess.timing import pl_kinematics
 from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration, folded_clearance_error, plan_random
 from rfp_twin.validation.checker2d import check_trajectory
 

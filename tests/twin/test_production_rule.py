@@ -15,23 +15,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rfp_twin.models.layout import Layout, layout_by_name
-from rfp_twin.models.layout.columns import robot_collision_arrays, segment_shift
+from rfp_twin.models.layout import layout_by_name
+from rfp_twin.models.layout.columns import (production_body_layout, robot_collision_arrays,
+                                             segment_shift)
 from rfp_twin.models.robot import load_spec
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 from rfp_twin.validation.checker2d import check_trajectory
 
 BUFFER_MM = 2.0
-
-
-def production_body_layout(layout: Layout) -> Layout:
-    """``layout`` with every robot's fiber columns dropped: each robot then has the
-    spec's segment (production's body), its own base, alpha arm and buffer kept."""
-    fibers = {"met_x_mm", "met_y_mm", "boss_x_mm", "boss_y_mm", "apogee_x_mm", "apogee_y_mm"}
-    extra = {k: v for k, v in layout.extra.items() if k not in fibers}
-    return Layout(layout.ids, layout.xy, layout.kinds, name=f"{layout.name}-production",
-                  extra=extra)
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,8 @@
 One module per group of commands: ``plan`` (:mod:`rfp_twin.twin.cli.plan`), ``simulate``,
 ``render``, ``record``, ``model export`` (:mod:`rfp_twin.twin.cli.run`), ``validate``,
 ``calibrate-buffer`` (:mod:`rfp_twin.twin.cli.validate`), ``study ...`` (:mod:`rfp_twin.twin.cli.study`),
-``coverage`` (:mod:`rfp_twin.twin.cli.coverage`).
+``coverage`` (:mod:`rfp_twin.twin.cli.coverage`), ``unwind``, ``explode``
+(:mod:`rfp_twin.twin.cli.recovery`).
 Every error is one line and an exit code from :mod:`rfp_twin.twin.cli.console`; nothing
 half-written is left behind.
 """
@@ -14,6 +15,7 @@ import gc
 import typer
 
 from rfp_twin.twin.cli import plan as _plan
+from rfp_twin.twin.cli import recovery as _recovery
 from rfp_twin.twin.cli import run as _run
 from rfp_twin.twin.cli.coverage import coverage as _coverage
 from rfp_twin.twin.cli.console import run_app
@@ -30,6 +32,8 @@ def _root() -> None:
 
 
 app.command()(_plan.plan)
+app.command()(_recovery.unwind)
+app.command()(_recovery.explode)
 app.command()(_coverage)
 app.command()(_run.simulate)
 app.command()(_run.render)

@@ -89,6 +89,10 @@ def plan(
     budget: float = typer.Option(0.03, help="Buffer share of smoothing + simplification, mm "
                                  "(Eq. 12); trajectories are verified at buffer - budget."),
     max_points: int = typer.Option(1024, help="Most (angle, time) points per axis (firmware)."),
+    flow: str = typer.Option("twin", help="twin (plan, resolve deadlocks, post-process: ours) | "
+                             "jaeger (SDSS-V's controller: decollide, plan without resolution, "
+                             "up to 5 retries that move a deadlocked robot's target, production "
+                             "smoothing, no re-check; the result is checked here)."),
     timing_backend: str = typer.Option("numba", help="Time-optimal parametrisation: numba (our "
                                        "kernel of TOPP-RA) | toppra (the library: the same "
                                        "laws, a cross-check, ~10x slower)."),
@@ -117,6 +121,13 @@ def plan(
                                     fiducial_ids=parse_ids(fiducials, "--fiducials"),
                                     options=options, offline=parse_offline(offline, spec.fold_deg))
     tg = rc.read_targets(targets) if targets is not None else None
+    if flow not in ("twin", "jaeger"):
+        raise TargetError(f"--flow {flow!r}; allowed: twin, jaeger")
+    if flow == "jaeger":
+        from rfp_twin.twin.cli.flow import run_jaeger_flow
+
+        return run_jaeger_flow(rc, seed, tg, out, force, algorithm=algorithm, greed=greed,
+                               phobia=phobia, step=step)
     t_setup = time.perf_counter()
     n, rounds = rc.geom.n_robots, options.max_rounds + 1
     with progress_bar("planning", "{task.completed}/{task.total}") as progress:

@@ -1,6 +1,7 @@
 """``rfp-twin simulate | render | record | model export``: a run folder in the MuJoCo twin.
 
-Each command reads a run folder written by ``rfp-twin plan`` (:func:`rfp_twin.twin.run_dir.load_run`)
+Each command reads a run folder written by ``rfp-twin plan``, or a jaeger / kaiju trajectory
+file with ``--layout`` / ``--calibration`` (:func:`rfp_twin.twin.cli.motion_option.load_motion`),
 and builds the MuJoCo model of its spec and layout; heavy imports (mujoco, rerun) happen
 inside the commands so that ``rfp-twin --help`` stays fast.
 """
@@ -15,6 +16,9 @@ from rfp_twin.models.errors import RfpError
 from rfp_twin.twin.cli.layout_option import CALIBRATION_HELP, LAYOUT_HELP, chosen_layout
 from rfp_twin.twin.cli.console import (EXIT_COLLISION, console, fail, one_line_errors,
                                   progress_bar)
+from rfp_twin.twin.cli.motion_option import (SOURCE_HELP, MotionOptions, angles_option,
+                                             calibration_option, is_trajectory_file, layout_option,
+                                             load_motion, preset_option)
 from rfp_twin.twin.cli.plan import parse_ids
 
 model_app = typer.Typer(no_args_is_help=True, help="The MuJoCo model of an array.")
@@ -101,31 +105,36 @@ def model_export(
 
 @one_line_errors
 def simulate(
-    run: Path = typer.Argument(..., help="Run folder written by `rfp-twin plan`."),
+    run: Path = typer.Argument(..., help=SOURCE_HELP),
     stuck: list[str] = typer.Option([], help="Fault: robot stuck from a time, ID:TIME_S."),
     slow: list[str] = typer.Option([], help="Fault: robot running slow, ID:FACTOR."),
     encoder_offset: list[str] = typer.Option([], help="Fault: encoder offset, ID:ALPHA_DEG:BETA_DEG."),
     timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
     tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
+    layout: Optional[str] = layout_option(),
+    calibration: Optional[Path] = calibration_option(),
+    preset: Optional[str] = preset_option(),
+    angles: str = angles_option(),
 ) -> None:
-    """Run the plan in the MuJoCo twin; writes RUN/sim.json; exit 4 on any robot contact."""
+    """Run the plan (or a trajectory file) in the MuJoCo twin; writes RUN/sim.json (or
+    FILE.sim.json beside a trajectory file); exit 4 on any robot contact."""
     from rfp_twin.models.mjcf import ModelOptions
-    from rfp_twin.twin.run_dir import load_run
 
-    spec, lay, traj, _ = load_run(run)
+    spec, lay, traj, _ = load_motion(run, MotionOptions(layout, calibration, preset, angles))
     faults = parse_faults(stuck, slow, encoder_offset)
     twin = build_with_progress(spec, lay, ModelOptions(timestep_s=timestep), tile_robots)
     report = simulate_with_progress(twin, traj, faults)
-    report.to_json(Path(run) / "sim.json")
+    path = run.with_name(f"{run.stem}.sim.json") if is_trajectory_file(run) else run / "sim.json"
+    report.to_json(path)
     console.print(report.table())
     if report.collided:
         raise fail(f"{report.robot_contacts} robot-robot contact(s) in simulation; see "
-                   f"{run}/sim.json", EXIT_COLLISION)
+                   f"{path}", EXIT_COLLISION)
 
 
 @one_line_errors
 def render(
-    run: Path = typer.Argument(..., help="Run folder written by `rfp-twin plan`."),
+    run: Path = typer.Argument(..., help=SOURCE_HELP),
     out: Path = typer.Option(Path("fold.mp4"), help="MP4 file to write."),
     camera: Optional[str] = typer.Option(None, help="top | oblique | closeup [default: top, "
                                          "closeup with --robot]."),
@@ -137,13 +146,16 @@ def render(
     fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
     full_quality: bool = typer.Option(False, help="Shadows, reflections, MSAA (slow on a CPU)."),
     tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
+    layout: Optional[str] = layout_option(),
+    calibration: Optional[Path] = calibration_option(),
+    preset: Optional[str] = preset_option(),
+    angles: str = angles_option(),
 ) -> None:
     """Simulate a run and render it offscreen to MP4 (robots coloured by state)."""
     from rfp_twin.twin.render import RenderSettings, render_run  # first: picks MUJOCO_GL before mujoco
 
-    from rfp_twin.twin.run_dir import load_run
-
-    spec, lay, traj, _ = load_run(run, to_fold=fold)
+    spec, lay, traj, _ = load_motion(run, MotionOptions(layout, calibration, preset, angles),
+                                     to_fold=fold)
     settings = RenderSettings(width=width, height=height, fps=fps, speedup=speedup,
                               camera=camera or ("closeup" if robot is not None else "top"),
                               robot_id=robot, lean=not full_quality)
@@ -159,17 +171,21 @@ def render(
 
 @one_line_errors
 def record(
-    run: Path = typer.Argument(..., help="Run folder written by `rfp-twin plan`."),
+    run: Path = typer.Argument(..., help=SOURCE_HELP),
     out: Path = typer.Option(Path("run.rrd"), help=".rrd file to write."),
     fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
     dt: Optional[float] = typer.Option(None, help="Seconds between logged poses [default 0.02]."),
     tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
+    layout: Optional[str] = layout_option(),
+    calibration: Optional[Path] = calibration_option(),
+    preset: Optional[str] = preset_option(),
+    angles: str = angles_option(),
 ) -> None:
     """Simulate a run and write a rerun recording: arm poses, fiber traces, contacts."""
     from rfp_twin.twin.record import RecordSettings, record_run
-    from rfp_twin.twin.run_dir import load_run
 
-    spec, lay, traj, _ = load_run(run, to_fold=fold)
+    spec, lay, traj, _ = load_motion(run, MotionOptions(layout, calibration, preset, angles),
+                                     to_fold=fold)
     settings = RecordSettings(dt_s=dt)
     twin = build_with_progress(spec, lay, tile_robots=tile_robots)
     sim_report = simulate_with_progress(twin, traj, record=True)

@@ -53,10 +53,9 @@ from rfp_twin.twin.sim.simulator import _RunSetup, _Samples, mujoco_warnings, st
 #: a chunk of ``chunk_s`` is shortened on large arrays so that its arrays stay ~64 MB.
 CHUNK_VALUES = 8_000_000
 #: Steps each tile takes alone before the halos are synchronised (no contact: see the
-#: module docstring). raft:204, one core, steps of one tile in a row: 1 -> 0.87 ms a
-#: tile step, 2 -> 0.58, 4 -> 0.51, 8 -> 0.50, 16 -> 0.44 (the cache). ``rfp-twin
-#: simulate`` of a raft:204 fold (2.72 s simulated, 2 threads, 5 runs each in turn):
-#: 8 -> 0.32-0.50x real time (median 0.42x), 16 -> 0.42-0.52x (median 0.48x).
+#: module docstring). A tile stepped many times in a row keeps its data in the core's
+#: cache: on raft:204 a tile step costs 0.44 ms in blocks of 16 against 0.87 ms one step
+#: at a time (benchmarks/HISTORY.md, "Code comments": twin/sim/tiled.py).
 BLOCK_STEPS = 16
 #: Steps run in lock step after a block met a contact, before blocks are tried again.
 LOCKSTEP_AFTER_CONTACT = 64

@@ -107,7 +107,7 @@ def check_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout, buffer_m
         Per-pair minima are refined until within ``distance_tol_mm + distance_rel_tol
         * clearance`` of the true minimum (``clearance``: sampled minimum minus the
         threshold, if positive): close pairs to 0.005 mm, far pairs to 5 % of their
-        clearance (as the 3D check; at 1 % the first check of a 12,871-robot fold took
+        clearance (as the 3D check; at 1 % the first check of a 12,871-robot fold takes
         3.8 s instead of 2.2 s, half of it spent refining minima of pairs mm apart).
         Collisions do not depend on these: an interval is bisected while its bound is
         at or below the threshold, whatever the tolerance.

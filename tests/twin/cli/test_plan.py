@@ -11,7 +11,7 @@ import pytest
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.models.trajectory import Trajectory
-from rfp_twin.planners.timing import pl_kinematics
+from rfp_twin.planners.postprocess.timing import pl_kinematics
 from rfp_twin.validation.checker2d import check_trajectory
 from tests.twin.cli.runner import run
 
