@@ -209,11 +209,13 @@ def plan(args) -> dict:
         os.dup2(null.fileno(), 1)
         try:
             t0 = time.perf_counter()
+            c0 = time.process_time()
             if args.algorithm == "greedy":
                 grid.pathGenGreedy(False, False)
             else:
                 grid.pathGenMDP2(args.greed, args.phobia, False, args.tries)
             seconds = time.perf_counter() - t0
+            cpu = time.process_time() - c0
         finally:
             os.dup2(saved, 1)
             os.close(saved)
@@ -221,8 +223,9 @@ def plan(args) -> dict:
     home = [rid for rid in ids if grid.robotDict[rid].score() == 0]
     return {"calib": str(args.calib), "algorithm": args.algorithm, "seed": args.seed,
             "buffer_mm": args.buffer, "step_deg": args.step, "n_robots": len(ids),
-            "initial_collisions": int(n_coll), "seconds": seconds,
-            "n_steps": int(grid.nSteps), "tries": int(grid.mdp2iter) + 1
+            "initial_collisions": int(n_coll), "seconds": seconds, "cpu_s": cpu,
+            # mdp2iter: index of the last try (nTries when every try failed)
+            "n_steps": int(grid.nSteps), "tries": min(int(grid.mdp2iter) + 1, args.tries)
             if args.algorithm == "mdp2" else 1, "did_fail": bool(grid.didFail),
             "n_home": len(home), "fraction_home": len(home) / max(1, len(ids)),
             "not_home": sorted(set(ids) - set(home)),
