@@ -31,7 +31,7 @@ Sections
    paper's Table 1.
 
 Both sections plan from random starts (the papers' set-up) with the field kernels
-themselves (:func:`rfp_twin.planners.apf.plan_apf`, tip or segment model, no recording), which
+themselves (:func:`rfp_twin.planners.fields.plan_apf`, tip or segment model, no recording), which
 the pipeline's planning step (fold -> targets, segment model) does not offer; rfp-twin's
 fields on the pipeline's own scenarios are in ``bench_compare.py``.
 
@@ -52,7 +52,7 @@ from bench_common import command_line, cpu_model, load_average, now, python_vers
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
-from rfp_twin.planners.apf import (ApfSettings, CapfSettings, apf_target_margin_mm, plan_apf,
+from rfp_twin.planners.fields import (ApfSettings, CapfSettings, apf_target_margin_mm, plan_apf,
                           random_tip_configs)
 from rfp_twin.planners.targets import random_targets
 from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration

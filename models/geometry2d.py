@@ -21,7 +21,7 @@ DEG = math.pi / 180.0
 
 
 @njit(cache=True, inline="always")
-def _segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
+def segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
     """True when segments AB and CD properly cross (each separates the other's ends)."""
     d1 = (dx - cx) * (ay - cy) - (dy - cy) * (ax - cx)
     d2 = (dx - cx) * (by - cy) - (dy - cy) * (bx - cx)
@@ -39,7 +39,7 @@ def segment_distance(ax, ay, bx, by, cx, cy, dx, dy):
     Crossing segments are 0 apart; otherwise the minimum is reached at an endpoint of
     one of the segments.
     """
-    if _segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
+    if segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
         return 0.0
     return math.sqrt(min(_point_segment_sq(ax, ay, cx, cy, dx, dy),
                          _point_segment_sq(bx, by, cx, cy, dx, dy),
@@ -48,7 +48,7 @@ def segment_distance(ax, ay, bx, by, cx, cy, dx, dy):
 
 
 @njit(cache=True, inline="always")
-def _project_sq(px, py, ax, ay, bx, by):
+def project_sq(px, py, ax, ay, bx, by):
     """Nearest point F of segment AB to point P: ``(|PF|^2 mm^2, t, fx, fy)`` with
     ``F = A + t (B - A)``, ``t`` in [0, 1] (``t = 0`` for a degenerate segment)."""
     ux = bx - ax
@@ -67,13 +67,13 @@ def _project_sq(px, py, ax, ay, bx, by):
 @njit(cache=True, inline="always")
 def _point_segment_sq(px, py, ax, ay, bx, by):
     """Squared distance from point P to segment AB, mm^2."""
-    return _project_sq(px, py, ax, ay, bx, by)[0]
+    return project_sq(px, py, ax, ay, bx, by)[0]
 
 
 @njit(cache=True, inline="always")
 def segments_within(ax, ay, bx, by, cx, cy, dx, dy, r):
     """True when segments AB and CD are at most r apart (no square roots)."""
-    if _segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
+    if segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
         return True
     r2 = r * r
     return (_point_segment_sq(ax, ay, cx, cy, dx, dy) <= r2
@@ -99,15 +99,15 @@ def segment_closest_sq(ax, ay, bx, by, cx, cy, dx, dy):
 
     Returns (distance^2, s, px, py, qx, qy).
     """
-    best, _, qx, qy = _project_sq(ax, ay, cx, cy, dx, dy)
+    best, _, qx, qy = project_sq(ax, ay, cx, cy, dx, dy)
     s_best, px, py = 0.0, ax, ay
-    d, _, fx, fy = _project_sq(bx, by, cx, cy, dx, dy)
+    d, _, fx, fy = project_sq(bx, by, cx, cy, dx, dy)
     if d < best:
         best, s_best, px, py, qx, qy = d, 1.0, bx, by, fx, fy
-    d, t, fx, fy = _project_sq(cx, cy, ax, ay, bx, by)
+    d, t, fx, fy = project_sq(cx, cy, ax, ay, bx, by)
     if d < best:
         best, s_best, px, py, qx, qy = d, t, fx, fy, cx, cy
-    d, t, fx, fy = _project_sq(dx, dy, ax, ay, bx, by)
+    d, t, fx, fy = project_sq(dx, dy, ax, ay, bx, by)
     if d < best:
         best, s_best, px, py, qx, qy = d, t, fx, fy, dx, dy
     return best, s_best, px, py, qx, qy

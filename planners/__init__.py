@@ -32,7 +32,7 @@ _LAZY = {
     "SearchResolveSettings": "rfp_twin.planners.resolve_search",
     "RoadmapSettings": "rfp_twin.planners.roadmap",
     **dict.fromkeys(("ApfSettings", "CapfSettings", "plan_apf", "plan_apf_reconfiguration",
-                     "apf_target_margin_mm"), "rfp_twin.planners.apf"),
+                     "apf_target_margin_mm"), "rfp_twin.planners.fields"),
     **dict.fromkeys(("postprocess", "PostprocessReport", "Verifier"), "rfp_twin.planners.postprocess"),
     **dict.fromkeys(("BACKENDS", "DEFAULT_BACKEND"), "rfp_twin.planners.postprocess.timing"),
 }

@@ -74,7 +74,7 @@ class PlannerSettings:
     """Parameters of one planning job.
 
     algorithm : "greedy" | "markov" (the stepwise kernel) | "roadmap" (Sabater's
-    prioritized planner on every robot, :mod:`rfp_twin.planners.roadmap_array`); step_deg :
+    prioritized planner on every robot, :mod:`rfp_twin.planners.roadmap.array`); step_deg :
     angular step (deg); greed, phobia : MC parameters in [0, 1]; direction : "reverse" | "forward"; max_steps : step limit
     (default 1000 deg / step, as in the paper); max_rounds : deadlock-resolution rounds.
     resolve : "search" (re-plan each deadlocked group with the state-time search of
@@ -184,9 +184,9 @@ def beta_first_robots(start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
 
 def _run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
                  settings: PlannerSettings, md: float, seed: int) -> StepRun:
-    """A roadmap pass (:func:`rfp_twin.planners.roadmap_array.roadmap_pass`) as a StepRun."""
+    """A roadmap pass (:func:`rfp_twin.planners.roadmap.array.roadmap_pass`) as a StepRun."""
     from rfp_twin.planners.resolve_search import SearchResolveSettings
-    from rfp_twin.planners.roadmap_array import roadmap_pass
+    from rfp_twin.planners.roadmap.array import roadmap_pass
 
     res = roadmap_pass(geom, start, dest, movable, md, settings.step_deg,
                        settings.search or SearchResolveSettings(), np.random.default_rng(seed))

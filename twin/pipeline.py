@@ -151,7 +151,7 @@ class PlanOptions:
         Alpha is held within the spec's limits: the pipeline delivers trajectories for the
         firmware, and a real robot stops at its alpha hard stops (the papers' robots have none).
         """
-        from rfp_twin.planners.apf import ApfSettings, CapfSettings
+        from rfp_twin.planners.fields import ApfSettings, CapfSettings
 
         if self.algorithm == "capf":
             return CapfSettings(model="segment", gain=self.apf_gain, lambda3=self.lambda3,
@@ -208,7 +208,7 @@ class Reconfiguration:
         """Clearance beyond Eq. 3 that random targets keep (mm): the stepwise planners'
         maximum displacement per step (Sayres 2021 step rule), or the field's barrier."""
         if self._field is not None:
-            from rfp_twin.planners.apf import apf_target_margin_mm
+            from rfp_twin.planners.fields import apf_target_margin_mm
 
             return apf_target_margin_mm(self.geom, self._field) + FIELD_TARGET_SLACK_MM
         return array_max_displacement(self.geom, self.options.step_deg)
@@ -234,7 +234,7 @@ class Reconfiguration:
 
         ``on_round(round, n_stuck)`` is called after each stepwise planner run."""
         if self._field is not None:
-            from rfp_twin.planners.apf import plan_apf_reconfiguration
+            from rfp_twin.planners.fields import plan_apf_reconfiguration
 
             return plan_apf_reconfiguration(self.geom, targets, self._field, offline=self.offline,
                                             algorithm=self.options.algorithm)

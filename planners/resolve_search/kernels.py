@@ -175,7 +175,7 @@ def _near_obstacles(d, t_lo, t_hi, n_t, obs_blk, obs_th, listed):
 @njit(cache=True, nogil=True)
 def sweep_layers(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left,
                  bx, by, l_alpha, s0, s1, obs_seg, obs_rho, obs_d, obs_th, obs_blk, hits):
-    """The layer loop of :class:`rfp_twin.planners.roadmap.sweep._PathSweep` compiled, with
+    """The layer loop of :class:`rfp_twin.planners.roadmap.sweep.PathSweep` compiled, with
     the moving-obstacle test of :func:`moving_collisions` as its black box: the same
     reachable sets, trajectory and node count as the Python loop, with fewer checks.
 

@@ -14,8 +14,9 @@ Modules: :mod:`~rfp_twin.planners.roadmap.arm` (inputs, settings, outputs),
 (depth-first state-time search, Sect. 6.4, Algorithms 3-6),
 :mod:`~rfp_twin.planners.roadmap.sweep` (the same graph, one time layer at a time),
 :mod:`~rfp_twin.planners.roadmap.planner` (one arm, Algorithm 2), :mod:`~rfp_twin.planners.roadmap.priority`
-(many arms: search over priorities). :mod:`rfp_twin.planners.roadmap_array` runs it on a whole
-alpha/beta array.
+(many arms: search over priorities), :mod:`~rfp_twin.planners.roadmap.array` (every robot
+of an alpha/beta array: ``PlannerSettings(algorithm="roadmap")``; imported by its module
+path).
 """
 from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats
 from rfp_twin.planners.roadmap.graph import Roadmap, build_roadmap, edge_time

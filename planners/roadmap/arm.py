@@ -217,7 +217,7 @@ class SearchStats:
     budget_exhausted: bool = False
 
 
-def _compress(times: np.ndarray, configs: np.ndarray, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+def compress_breakpoints(times: np.ndarray, configs: np.ndarray, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
     """Drop breakpoints that linear interpolation reproduces (and zero-time duplicates).
 
     times (k,), configs (k, d): two passes of :func:`_compress_keep` (compiled; equality as

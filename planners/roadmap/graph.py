@@ -52,7 +52,7 @@ def _edge_samples(q0: np.ndarray, q1: np.ndarray, step: np.ndarray) -> np.ndarra
     return q0[None, :] + f * (q1 - q0)[None, :]
 
 
-class _EdgeFeasibility:
+class EdgeFeasibility:
     """Memoised ``forbidden`` check of straight edges (the path's edges must avoid the ZoA)."""
 
     def __init__(self, arm: Arm, step: np.ndarray):
@@ -118,7 +118,7 @@ class _EdgeFeasibility:
 
 
 def build_roadmap(arm: Arm, settings: RoadmapSettings, rng: np.random.Generator,
-                  feasible: _EdgeFeasibility | None = None) -> Roadmap:
+                  feasible: EdgeFeasibility | None = None) -> Roadmap:
     """Roadmap of one arm (Sabater 2018 Sect. 6.1), paths sorted cheapest first.
 
     Vertices are the junctions of a ``settings.grid`` grid over ``[arm.lower,
@@ -136,7 +136,7 @@ def build_roadmap(arm: Arm, settings: RoadmapSettings, rng: np.random.Generator,
     goal = np.asarray(arm.goal, dtype=np.float64)
     vmax = np.asarray(arm.vmax, dtype=np.float64)
     if feasible is None:
-        feasible = _EdgeFeasibility(arm, _check_step(arm, settings))
+        feasible = EdgeFeasibility(arm, edge_check_spacing(arm, settings))
     axes = [np.linspace(lo, hi, int(g)) if int(g) > 1 else np.array([0.5 * (lo + hi)])
             for lo, hi, g in zip(arm.lower, arm.upper, settings.grid)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, d)
@@ -221,7 +221,9 @@ def _corner_vertices(start: np.ndarray, goal: np.ndarray, vmax: np.ndarray) -> n
     return np.array(out).reshape(-1, d)
 
 
-def _check_step(arm: Arm, settings: RoadmapSettings) -> np.ndarray:
+def edge_check_spacing(arm: Arm, settings: RoadmapSettings) -> np.ndarray:
+    """(dim,) spacing, joint units, at which an edge's configurations are checked:
+    ``settings.edge_check_step``, else each joint's top speed over one collision step."""
     if settings.edge_check_step is not None:
         return np.full(arm.dim, float(settings.edge_check_step))
     dt_col = settings.dt if settings.dt_col is None else settings.dt_col

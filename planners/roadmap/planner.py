@@ -19,10 +19,12 @@ from typing import Iterator
 import numpy as np
 
 from rfp_twin.models.errors import SpecError, field_error
-from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats, _compress
-from rfp_twin.planners.roadmap.graph import Roadmap, _check_step, _EdgeFeasibility, build_roadmap
-from rfp_twin.planners.roadmap.search import _PathSearch
-from rfp_twin.planners.roadmap.sweep import _PathSweep
+from rfp_twin.planners.roadmap.arm import (Arm, ArmTrajectory, RoadmapSettings, SearchStats,
+                                           compress_breakpoints)
+from rfp_twin.planners.roadmap.graph import (EdgeFeasibility, Roadmap, build_roadmap,
+                                             edge_check_spacing)
+from rfp_twin.planners.roadmap.search import PathSearch
+from rfp_twin.planners.roadmap.sweep import PathSweep
 from rfp_twin.planners.roadmap.sweep_batches import search_batched
 
 
@@ -72,7 +74,7 @@ def plan_arm(arm: Arm, settings: RoadmapSettings, rng: np.random.Generator,
         if bool(np.any(arm.forbidden(np.asarray(q, dtype=np.float64)[None, :]))):
             raise field_error(SpecError, name, tuple(np.round(np.asarray(q, dtype=float), 6)),
                               "a configuration outside the forbidden zone", "Arm")
-    feasible = _EdgeFeasibility(arm, _check_step(arm, settings))
+    feasible = EdgeFeasibility(arm, edge_check_spacing(arm, settings))
     clear_after = goal_clear_after(arm, settings)
     result = None
     for t_dep in _departures(arm, settings, stats):
@@ -94,7 +96,7 @@ def plan_arm(arm: Arm, settings: RoadmapSettings, rng: np.random.Generator,
 
 
 def _search_roadmap(arm: Arm, roadmap: Roadmap, settings: RoadmapSettings, stats: SearchStats,
-                    clear_after: float, feasible: _EdgeFeasibility) -> ArmTrajectory | None:
+                    clear_after: float, feasible: EdgeFeasibility) -> ArmTrajectory | None:
     """Algorithm 2's loop: paths cheapest first, the first one that gets a trajectory
     (with a compiled sweep of several paths, in batches on two cores:
     :mod:`rfp_twin.planners.roadmap.sweep_batches`, the same result)."""
@@ -103,13 +105,13 @@ def _search_roadmap(arm: Arm, roadmap: Roadmap, settings: RoadmapSettings, stats
         first = next(paths, None)
         if first is None:
             return None
-        probe = _PathSweep(arm, first, settings, stats, clear_after)
+        probe = PathSweep(arm, first, settings, stats, clear_after)
         if not probe.start_collides():
             return search_batched(probe, paths, stats)
         paths = itertools.chain([first], paths)
     for path in paths:
         stats.paths_tried += 1
-        searcher = _PathSweep if settings.search == "sweep" else _PathSearch
+        searcher = PathSweep if settings.search == "sweep" else PathSearch
         result = searcher(arm, path, settings, stats, clear_after).run()
         if result is not None:
             return result
@@ -119,7 +121,7 @@ def _search_roadmap(arm: Arm, roadmap: Roadmap, settings: RoadmapSettings, stats
 
 
 def _candidates(roadmap: Roadmap, settings: RoadmapSettings,
-                feasible: _EdgeFeasibility) -> Iterator[np.ndarray]:
+                feasible: EdgeFeasibility) -> Iterator[np.ndarray]:
     """The roadmap's paths to try, in order: zero-length edges dropped, edges through the
     forbidden zone skipped, at most ``max_paths`` and none slower than ``max_path_time``.
     The edges of the next :data:`EDGE_BLOCK` paths are checked together."""
@@ -198,5 +200,5 @@ def _with_lead_in(arm: Arm, t_dep: float, tr: ArmTrajectory) -> ArmTrajectory:
     keep = times < t_dep - 1e-12
     t = np.concatenate([times[keep], tr.times])
     q = np.vstack([configs[keep], tr.configs])
-    t, q = _compress(t, q)
+    t, q = compress_breakpoints(t, q)
     return replace(tr, times=t, configs=q)

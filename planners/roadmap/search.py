@@ -28,7 +28,8 @@ import math
 
 import numpy as np
 
-from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats, _compress
+from rfp_twin.planners.roadmap.arm import (Arm, ArmTrajectory, RoadmapSettings, SearchStats,
+                                           compress_breakpoints)
 
 
 def _neighbour_actions(ns: int, m: int, n_stop: int | None) -> list[tuple[int, int]]:
@@ -56,7 +57,7 @@ def _neighbour_actions(ns: int, m: int, n_stop: int | None) -> list[tuple[int, i
     return [(-1, ns + 1), (0, ns + 1), (1, ns)]
 
 
-class _PathWalk:
+class PathWalk:
     """What the searches along one roadmap path share: the task, the clock, the bounds.
 
     The path's edges are cut into whole ``dt`` steps: ``n_seg[e]`` steps for edge e, the
@@ -96,7 +97,7 @@ class _PathWalk:
         return bool(np.any(self.arm.collides(self.path[:1], np.array([self.arm.t_start]))))
 
 
-class _PathSearch(_PathWalk):
+class PathSearch(PathWalk):
     """Depth-first state-time search along one roadmap path (its edges in sequence).
 
     Node = (edge e, step index i along the edge (s = i / n_seg), ns, m, time index k);
@@ -218,5 +219,5 @@ class _PathSearch(_PathWalk):
             prev = (e, i, ns, m, k)
         times = np.array(times)
         configs = np.array(configs)
-        times, configs = _compress(times, configs)
+        times, configs = compress_breakpoints(times, configs)
         return ArmTrajectory(times, configs, self.path.copy(), int(chain[-1][2]), n_go, n_stop)

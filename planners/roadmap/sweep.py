@@ -15,8 +15,9 @@ import math
 import numpy as np
 from numba import njit
 
-from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats, _compress
-from rfp_twin.planners.roadmap.search import _PathWalk
+from rfp_twin.planners.roadmap.arm import (Arm, ArmTrajectory, RoadmapSettings, SearchStats,
+                                           compress_breakpoints)
+from rfp_twin.planners.roadmap.search import PathWalk
 
 
 #: The actions in the order they take a position: forward, stop, backward (+1, 0, -1
@@ -101,7 +102,7 @@ def _sweep_advance(hit, src, act, K, P):
 
 @njit(cache=True)
 def path_positions(pts, p_ptr, vmax, dt):
-    """The sweep positions of several roadmap paths at once, as :class:`_PathSweep`
+    """The sweep positions of several roadmap paths at once, as :class:`PathSweep`
     builds them one path at a time: path m is ``pts[p_ptr[m]:p_ptr[m + 1]]`` ((k_m, d)
     vertices); edge e is cut into ``n = max(1, ceil(max_c |dq_c| / vmax_c / dt))`` steps,
     position j of it at ``q_e + (j / n) dq``. Returns (Qs (sum of P_m + 1, d) positions,
@@ -149,11 +150,11 @@ def length_bound(k_static, k_max, n_positions):
     return bound if k_max is None else np.minimum(k_max, bound)
 
 
-class _PathSweep(_PathWalk):
+class PathSweep(PathWalk):
     """Earliest-arrival search along one roadmap path, one time layer at a time.
 
     Beyond the paper (``RoadmapSettings.search = "sweep"``, unlimited ``n_stop`` only):
-    the same state-time graph as :class:`_PathSearch` (positions ``i / n_seg`` along
+    the same state-time graph as :class:`PathSearch` (positions ``i / n_seg`` along
     each edge, actions backward / stop / forward of one ``dt``, collisions every
     ``dt_col``), explored breadth first in time: the set of positions reachable at
     time ``t_start + k dt`` is advanced to ``k + 1`` by checking the three actions of
@@ -249,5 +250,5 @@ class _PathSweep(_PathWalk):
             prev = m
         crossed = sum(1 for v in self.vertex_pos[:-1] if v in set(pos))
         n_go = sum(1 for m in acts if m != 0)
-        times, configs = _compress(times, configs)
+        times, configs = compress_breakpoints(times, configs)
         return ArmTrajectory(times, configs, self.path.copy(), ns + crossed, n_go, len(acts) - n_go)

@@ -27,7 +27,7 @@ import numpy as np
 
 from rfp_twin.models.second_thread import second_thread
 from rfp_twin.planners.roadmap.arm import ArmTrajectory, SearchStats
-from rfp_twin.planners.roadmap.sweep import _PathSweep, length_bound, path_positions
+from rfp_twin.planners.roadmap.sweep import PathSweep, length_bound, path_positions
 
 #: Outcomes of ``Arm.sweep_paths`` (those of the compiled layer loop).
 FOUND, FAILED, BUDGET = 0, 1, 2
@@ -41,9 +41,9 @@ BATCH_SIZES = (1, 4, 8, 16, 32)
 class _Batch:
     """Roadmap paths swept by one ``sweep_paths`` call (positions built by
     :func:`rfp_twin.planners.roadmap.sweep.path_positions`, as each path's
-    :class:`_PathSweep` would build them)."""
+    :class:`PathSweep` would build them)."""
 
-    def __init__(self, paths: list[np.ndarray], probe: _PathSweep):
+    def __init__(self, paths: list[np.ndarray], probe: PathSweep):
         self.paths = paths
         self.probe = probe
         pts = np.ascontiguousarray(np.vstack(paths), dtype=np.float64)
@@ -75,7 +75,7 @@ def _take(paths: Iterator[np.ndarray], n: int) -> list[np.ndarray]:
     return list(itertools.islice(paths, n))
 
 
-def search_batched(probe: _PathSweep, paths: Iterator[np.ndarray],
+def search_batched(probe: PathSweep, paths: Iterator[np.ndarray],
                    stats: SearchStats) -> ArmTrajectory | None:
     """The first of ``paths`` (the roadmap's, filtered and in order, at most
     ``settings.max_paths``) that gets a trajectory, or None; ``stats`` as the one-by-one
@@ -123,7 +123,7 @@ def _consume(batch: _Batch, stats: SearchStats) -> tuple[ArmTrajectory | None, b
     p.arm.sweep.hits += batch.hits
     if outcome == FOUND:
         path = batch.paths[int(n_done) - 1]
-        sweep = p if path is p.path else _PathSweep(p.arm, path, p.s, stats, p.goal_clear_after)
+        sweep = p if path is p.path else PathSweep(p.arm, path, p.s, stats, p.goal_clear_after)
         return sweep._trajectory(came, int(k_end)), True
     if outcome == BUDGET:
         stats.budget_exhausted = True
