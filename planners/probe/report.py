@@ -122,13 +122,14 @@ class ProbePlan:
         t1.append(f"total time {self.seconds:.3f} s, average {self.seconds / n:.3f} s; "
                   f"total checks {self.checks}, average {self.checks / n:.0f}")
         t2 = ["Table 2 form: trajectories found (steps of "
-              f"{self.settings.dt_s:g} s)",
+              f"{self.settings.dt_s:g} s; routes: usable / in the roadmap)",
               f"{'arm':>4} {'prio':>4} {'est (s)':>8} {'path':>14} {'n':>3} {'go':>3} "
-              f"{'stop':>4} {'ss':>3} {'opt':>4} {'routes':>6} {'min':>4} {'avg':>6}"]
+              f"{'stop':>4} {'ss':>3} {'opt':>4} {'routes':>7} {'min':>4} {'avg':>6}"]
         for r in self.rows:
             t2.append(f"{r.arm:>4} {r.priority:>4} {r.est_travel_s:>8.2f} {r.path:>14} "
                       f"{r.steps:>3} {r.n_go:>3} {r.n_stop:>4} {r.start_stop:>3} "
-                      f"{r.optimum_steps:>4} {r.roadmap_paths:>6} {r.roadmap_min_steps:>4} "
+                      f"{r.optimum_steps:>4} {f'{r.roadmap_paths}/{r.roadmap_routes}':>7} "
+                      f"{r.roadmap_min_steps:>4} "
                       f"{r.roadmap_mean_steps:>6.2f}")
         t2.append(f"makespan {self.makespan_steps} steps = {self.makespan_s:g} s; "
                   f"most start-stop cycles of an arm {self.max_start_stop}"
