@@ -25,6 +25,7 @@ from rfp_twin.twin.cli.study import study_app
 from rfp_twin.twin.cli.validate import register as _register_validation
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+                  rich_markup_mode=None,
                   help="Digital twin of robotic fiber positioner arrays.")
 
 

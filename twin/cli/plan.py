@@ -59,6 +59,9 @@ def plan(
     greed: float = typer.Option(0.9, help="Markov greed, [0, 1]."),
     phobia: float = typer.Option(0.3, help="Markov phobia, [0, 1]."),
     seed: int = typer.Option(0, help="Seed of targets, Markov moves and replacements."),
+    n_targets: Optional[int] = typer.Option(None, help="Probe-arm presets (miradas-probe): "
+                                            "this many random targets drawn with --seed "
+                                            "[default: the typical scenario, 12 arms]."),
     offline: list[str] = typer.Option([], help="Offline robot: ID (parked folded) or ID:ALPHA:BETA; "
                                       "repeat or comma-separate."),
     targets: Optional[Path] = typer.Option(None, help="Targets CSV (robot_id + alpha_deg,beta_deg or "
@@ -120,11 +123,17 @@ def plan(
     acceleration limits (interacting robots share one path parameter), simplified to at most
     --max-points per axis and verified again at buffer - budget."""
     t_import = time.perf_counter()
-    from rfp_twin.models.robot import load_spec
+    from rfp_twin.models.kinds import ALPHA_BETA
+    from rfp_twin.models.robot import load_spec, preset_kind
     from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
     from rfp_twin.twin.run_dir import check_output_folder
 
     check_output_folder(out, force)
+    if preset_kind(preset) != ALPHA_BETA:             # probe arms: their own planner
+        from rfp_twin.twin.cli.probe import plan_probe_cli
+
+        plan_probe_cli(preset, layout, algorithm, seed, n_targets, out, force)
+        return
 
     t_start = time.perf_counter()
     options = PlanOptions(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,
