@@ -44,6 +44,10 @@ class TrajectoryError(RfpError):
     """A trajectory is malformed (unsorted times, NaN, unknown robot, bad JSON)."""
 
 
+class KindError(RfpError):
+    """A component (planner, checker, loader) was given a robot kind it does not support."""
+
+
 def field_error(cls: type[RfpError], field: str, value, allowed: str, where: str = "") -> RfpError:
     """Build a uniform one-line error: ``<where>: field 'x' = v; allowed: ...``."""
     prefix = f"{where}: " if where else ""

@@ -9,13 +9,17 @@ target get their parking pose (the fold), which the planner treats as a target.
 Methods (``AssignSettings.solver``):
 
 - ``cpsat`` / ``highs``: the exact program of :mod:`rfp_twin.planners.assignment.problem`,
-  split into independent components, each solved by OR-Tools CP-SAT or HiGHS with the
-  greedy solution as a hint (CP-SAT); the result is proven optimal unless the time limit
-  stops a component, and its bound is reported either way.
+  split into independent components, each solved by OR-Tools CP-SAT or HiGHS (CP-SAT
+  with the greedy solution as a hint); the result is proven optimal unless the time
+  limit stops a component, and its bound is reported either way. A component of more
+  than :data:`MAX_EXACT_ROBOTS` robots is not solved whole: its greedy poses are improved
+  window by window, each window solved exactly by HiGHS
+  (:mod:`rfp_twin.planners.assignment.windows`); its bound is then each robot's best
+  weight, summed.
 - ``greedy``: the heuristic of :mod:`rfp_twin.planners.assignment.greedy` (greedy by
   priority + local improvement); bound: each robot's best candidate, summed (conflicts
   and shared targets ignored), capped by the catalogue's reachable targets.
-- ``auto``: CP-SAT up to :data:`MAX_EXACT_ROBOTS` robots, the heuristic above.
+- ``auto``: :data:`DEFAULT_EXACT` (HiGHS, chosen by benchmarks/bench_assign.py).
 """
 from __future__ import annotations
 
@@ -26,16 +30,19 @@ import numpy as np
 
 from rfp_twin.models.catalogue import KINDS, SKY, STANDARD, Catalogue
 from rfp_twin.models.errors import AssignmentError
-from rfp_twin.planners.assignment.candidates import ARMS, Candidates, build_candidates
-from rfp_twin.planners.assignment.conflicts import (conflict_cliques, conflict_pairs,
-                                                    neighbour_pairs)
+from rfp_twin.planners.assignment.candidates import ARMS, Candidates, build_candidates, subset
+from rfp_twin.planners.assignment.conflicts import (conflict_cliques, conflict_degrees,
+                                                    conflict_pairs, neighbour_pairs)
+from rfp_twin.planners.assignment.dominance import undominated
 from rfp_twin.planners.assignment.greedy import greedy_assign
 from rfp_twin.planners.assignment.problem import Problem
 from rfp_twin.planners.assignment.solvers import SOLVERS, solve
+from rfp_twin.planners.assignment.windows import improve_windows
 
 METHODS = ("auto", "greedy") + SOLVERS
-#: ``auto`` solves exactly up to this many robots, heuristically above.
-MAX_EXACT_ROBOTS = 3000
+#: Components of more robots than this are not solved whole: the greedy poses are
+#: improved window by window (:mod:`rfp_twin.planners.assignment.windows`).
+MAX_EXACT_ROBOTS = 2000
 #: The exact solver used by ``auto`` (chosen by benchmarks/bench_assign.py).
 DEFAULT_EXACT = "highs"
 
@@ -229,18 +236,17 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
                                   f"({members.size} candidate poses); allowed: a quota <= the "
                                   "best count reachable")
     allowed = np.ones(cands.n, dtype=bool)
+    degree = conflict_degrees(cands, pairs, geom.buffer, s.margin_mm)
     greedy_chosen, sweeps = greedy_assign(cands, catalogue.n_targets, nbr_ptr, nbr_idx,
                                           geom.buffer, s.margin_mm, allowed=allowed,
-                                          max_sweeps=s.max_sweeps)
+                                          degree=degree, max_sweeps=s.max_sweeps)
     t_greedy = time.perf_counter()
     stats = {"n_robots": geom.n_robots, "n_targets": catalogue.n_targets,
              "n_candidates": n_real, "n_neighbour_pairs": int(pairs.shape[0]),
              "greedy_objective": float(cands.weight[greedy_chosen].sum()),
              "greedy_sweeps": sweeps,
              "seconds": {"candidates": t_cand - t0, "greedy": t_greedy - t_cand}}
-    method = s.solver
-    if method == "auto":
-        method = DEFAULT_EXACT if geom.n_robots <= MAX_EXACT_ROBOTS else "greedy"
+    method = DEFAULT_EXACT if s.solver == "auto" else s.solver
     easy = relaxed_bound(cands, catalogue.n_targets)
     if not quota_rows and stats["greedy_objective"] >= easy:
         # every robot has its best weight (or every reachable target is taken): optimal
@@ -253,13 +259,23 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
         return _finish(geom, catalogue, cands, greedy_chosen, easy, "heuristic", "greedy", stats)
 
     a, b = conflict_pairs(cands, pairs, geom.buffer, s.margin_mm)
-    cp, ci = conflict_cliques(a, b, cands.robot)
-    problem = Problem.build(cands, cp, ci, [(m, q) for m, q, _ in quota_rows])
+    # presolve: poses another pose of the same robot dominates never need to be taken
+    group = np.full(cands.n, -1, dtype=np.int64)
+    for q, (members, _, _) in enumerate(quota_rows):
+        group[members] = q
+    red, sel = subset(cands, undominated(cands, a, b, group))
+    new_index = np.full(cands.n, -1, dtype=np.int64)
+    new_index[sel] = np.arange(sel.size)
+    both = (new_index[a] >= 0) & (new_index[b] >= 0)
+    cp, ci = conflict_cliques(new_index[a[both]], new_index[b[both]], red.robot)
+    red_quotas = [(new_index[m][new_index[m] >= 0], q, what) for m, q, what in quota_rows]
+    problem = Problem.build(red, cp, ci, [(m, q) for m, q, _ in red_quotas])
     subs = problem.split()
     t_model = time.perf_counter()
     chosen = greedy_chosen.copy()
     hint_x = np.zeros(cands.n, dtype=bool)
     hint_x[greedy_chosen] = True
+    hint_red = hint_x[sel]
     robot_best = np.maximum.reduceat(cands.weight, cands.ptr[:-1])
     bound = 0.0
     all_optimal = True
@@ -268,7 +284,7 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
     for sub in subs:
         if sub.n_robots == 1 and not sub.has_quota:
             best = sub.cands[int(np.argmax(sub.weight))]
-            chosen[problem.robot[best]] = best
+            chosen[problem.robot[best]] = sel[best]
             bound += float(sub.weight.max())
             continue
         robots = np.unique(problem.robot[sub.cands])
@@ -279,18 +295,28 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
         n_solved += 1
         largest = max(largest, sub.n_robots)
         left = max(0.05, s.time_limit_s - (time.perf_counter() - t_model))
-        sol = solve(sub, method, time_limit_s=left, workers=s.workers, hint=hint_x[sub.cands])
+        if sub.n_robots > MAX_EXACT_ROBOTS and not sub.has_quota:
+            # too large to solve whole: the greedy poses improved window by window
+            got = improve_windows(cands, chosen, geom.base_xy, catalogue.n_targets, a, b,
+                                  robots=robots, time_limit_s=left)
+            for k in ("windows", "improved"):
+                stats[f"windows_{k}"] = stats.get(f"windows_{k}", 0) + got[k]
+            all_optimal = False
+            bound += easy
+            continue
+        sol = solve(sub, method, time_limit_s=left, workers=s.workers, hint=hint_red[sub.cands])
         if sol.status == "infeasible":
-            _explain_quota(geom, cands, problem, quota_rows, method, s)
+            _explain_quota(geom, red, problem, red_quotas, method, s)
         if sol.status not in ("optimal", "feasible"):
             # no solution in time: keep the greedy poses of this component
             all_optimal = False
-            bound += sol.bound if np.isfinite(sol.bound) else float(sub.weight.sum())
+            bound += min(sol.bound, easy) if np.isfinite(sol.bound) else easy
             continue
         taken = sub.cands[sol.x]
-        chosen[problem.robot[taken]] = taken
+        chosen[problem.robot[taken]] = sel[taken]
         bound += sol.bound
         all_optimal &= sol.status == "optimal"
+    stats["n_candidates_presolved"] = int(sel.size - geom.n_robots)
     t_solve = time.perf_counter()
     stats.update({"n_conflict_pairs": int(a.size), "n_rows": problem.rows.n_rows,
                   "n_components": len(subs), "n_components_solved": n_solved,

@@ -76,3 +76,24 @@ def conflict_cliques(a: np.ndarray, b: np.ndarray, robot: np.ndarray
     pos = np.arange(a.size) - np.repeat(starts, sizes - 1) + np.repeat(ptr[:-1] + 1, sizes - 1)
     idx[pos] = b
     return ptr, idx
+
+
+@njit(cache=True)
+def _degrees(seg, ptr, pairs, buffer, margin, out):
+    for p in range(pairs.shape[0]):
+        i = pairs[p, 0]
+        j = pairs[p, 1]
+        r = buffer[i] + buffer[j] + margin
+        for a in range(ptr[i], ptr[i + 1]):
+            for b in range(ptr[j], ptr[j + 1]):
+                if segments_within(seg[a, 0], seg[a, 1], seg[a, 2], seg[a, 3],
+                                   seg[b, 0], seg[b, 1], seg[b, 2], seg[b, 3], r):
+                    out[a] += 1
+                    out[b] += 1
+
+
+def conflict_degrees(cands, pairs: np.ndarray, buffer: np.ndarray, margin_mm: float) -> np.ndarray:
+    """(c,) int64 number of candidate poses of other robots each candidate collides with."""
+    out = np.zeros(cands.n, dtype=np.int64)
+    _degrees(cands.seg, cands.ptr, pairs, buffer, float(margin_mm), out)
+    return out

@@ -181,3 +181,58 @@ def test_the_heuristic_is_feasible_and_near_its_bound_on_a_dense_field():
     a = assign(geom, cat, AssignSettings(solver="greedy", margin_mm=0.07))
     assert_valid(geom, cat, a)
     assert a.gap <= 0.01 and a.bound >= a.objective
+
+
+def test_large_components_are_improved_window_by_window(monkeypatch):
+    """A component above the exact solver's size: the greedy poses improved by windows
+    solved exactly; feasible, never worse than greedy, never better than the optimum."""
+    import importlib
+
+    assign_module = importlib.import_module("rfp_twin.planners.assignment.assign")
+
+    geom = hex_geom(127)
+    cat = covering_catalogue(geom, 2.0, seed=11, levels=2)
+    margin = array_max_displacement(geom, 0.1)
+    exact = assign(geom, cat, AssignSettings(solver="highs", margin_mm=margin))
+    monkeypatch.setattr(assign_module, "MAX_EXACT_ROBOTS", 20)
+    win = assign(geom, cat, AssignSettings(solver="highs", margin_mm=margin))
+    assert win.stats["windows_windows"] > 0 and win.status == "feasible"
+    assert_valid(geom, cat, win)
+    assert win.stats["greedy_objective"] <= win.objective <= exact.objective + 1e-9
+    assert win.bound >= exact.objective - 1e-9
+
+
+def test_dominated_poses_are_dropped_without_losing_the_optimum():
+    """Presolve by dominance: the same optimum as the full program (CP-SAT on every pose,
+    HiGHS after the presolve), and a pose is only dropped for a pose of its own robot."""
+    import importlib
+
+    from rfp_twin.planners.assignment.conflicts import conflict_pairs, neighbour_pairs
+    from rfp_twin.planners.assignment.dominance import exclusion_csr, undominated
+
+    assign_module = importlib.import_module("rfp_twin.planners.assignment.assign")
+    geom = hex_geom(37)
+    cat = covering_catalogue(geom, 3.0, seed=8, levels=3)
+    margin = array_max_displacement(geom, 0.1)
+    cands = build_candidates(geom, cat, margin_mm=margin)
+    pairs = neighbour_pairs(geom, margin)
+    a, b = conflict_pairs(cands, pairs, geom.buffer, margin)
+    keep = undominated(cands, a, b)
+    assert 0 < np.count_nonzero(~keep) < cands.n
+    ptr, idx = exclusion_csr(cands, a, b)
+    for c in np.flatnonzero(~keep)[:50]:
+        r = cands.robot[c]
+        mates = [d for d in range(cands.ptr[r], cands.ptr[r + 1]) if d != c
+                 and cands.weight[d] >= cands.weight[c]
+                 and set(idx[ptr[d]:ptr[d + 1]]) <= set(idx[ptr[c]:ptr[c + 1]])]
+        assert mates
+    with_presolve = assign(geom, cat, AssignSettings(solver="highs", margin_mm=margin))
+    original = assign_module.undominated
+    try:
+        assign_module.undominated = lambda cands, a, b, group=None: np.ones(cands.n, dtype=bool)
+        without = assign(geom, cat, AssignSettings(solver="highs", margin_mm=margin))
+    finally:
+        assign_module.undominated = original
+    assert with_presolve.status == without.status == "optimal"
+    assert with_presolve.objective == pytest.approx(without.objective)
+    assert_valid(geom, cat, with_presolve)

@@ -66,3 +66,21 @@ def test_an_unmeetable_quota_names_region_and_best_count(tmp_path):
     assert r.returncode == 2
     assert "sky quota in the whole plane: needs 2; the best count reachable is 1" in r.stderr
     assert not out.exists()
+
+
+def test_plan_a_catalogue_keeps_every_assigned_target(tmp_path):
+    out = tmp_path / "p"
+    r = run("plan", "--layout", "hex:19", "--buffer", "2.0", "--telescope", "none",
+            "--catalogue", "mock:uniform:1.5/patrol", "--seed", "2", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    s = json.loads((out / "summary.json").read_text())
+    a = s["assignment"]
+    assert a["kept"] == a["assigned"] > 0 and a["lost"] == 0 and a["n_rounds"] >= 1
+    assert s["check2d"]["ok"]
+    rows = list(csv.DictReader((out / "assignment.csv").open()))
+    assert sum(1 for row in rows if row["target_id"]) == a["assigned"]
+    assert "assigned / kept by the plan" in r.stdout
+    r = run("plan", "--layout", "hex:7", "--catalogue", "mock:uniform:1/patrol", "--targets",
+            str(out / "assignment.csv"), "--out", str(tmp_path / "q"))
+    assert r.returncode == 2 and "allowed: one of them" in r.stderr
+    assert not (tmp_path / "q").exists()
