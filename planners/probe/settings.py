@@ -37,6 +37,9 @@ class ProbePlanSettings:
         discarded
     horizon_s : float, T_f: nodes at or after this time are not expanded, so every arm
         arrives by then (the paper's 120 s configuration-time goal)
+    replans : int, passes after a failed one, each with the arm that failed first in the
+        order (Sect. 2.1: "replanning with a different arm-priority scheme"); 0 = the one
+        pass of the paper's experiments (Sect. 8)
     priority : "travel-time" (Sect. 7) | "still-first" | "random" (:data:`PRIORITIES`)
     """
 
@@ -49,6 +52,7 @@ class ProbePlanSettings:
     max_path_time_s: float = 120.0
     horizon_s: float = 120.0
     priority: str = "travel-time"
+    replans: int = 0
 
     def __post_init__(self) -> None:
         where = "ProbePlanSettings"
@@ -66,5 +70,7 @@ class ProbePlanSettings:
             raise field_error(SpecError, "grid", self.grid, "two integers >= 1", where)
         if self.n_random_edges < 0:
             raise field_error(SpecError, "n_random_edges", self.n_random_edges, ">= 0", where)
+        if not isinstance(self.replans, int) or self.replans < 0:
+            raise field_error(SpecError, "replans", self.replans, "an integer >= 0", where)
         if self.priority not in PRIORITIES:
             raise field_error(SpecError, "priority", self.priority, ", ".join(PRIORITIES), where)
