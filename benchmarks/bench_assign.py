@@ -29,6 +29,11 @@ each ``--loop-densities`` (targets/deg^2 with each telescope's plate scale and f
 rounds and targets lost per round, assigned and kept targets, the firmware-ready fold,
 the 2D check and the wall seconds.
 
+``compare``: on the same catalogues (``--loop-seeds``, ``--loop-densities``), the rule of the
+field systems (assignment checking final poses only, at the collision rule without the
+planner's margin, then our planner with target replacement) against the loop: assigned
+targets, and those lost between assignment and motion.
+
 Prints markdown tables to paste into benchmarks/RESULTS.md by hand.
 """
 from __future__ import annotations
@@ -155,9 +160,49 @@ def run_loop(args) -> list[str]:
     return lines
 
 
+def run_compare(args) -> list[str]:
+    """The production rule against the loop: assign checking final poses only (the
+    collision rule, no planner margin: as robostrategy / fiberassign do), then plan with
+    target replacement (``--resolve replace``), and count the assigned targets the plan
+    did not keep; the loop (:func:`plan_catalogue`) on the same catalogue."""
+    from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
+    from rfp_twin.twin.plannable import plan_catalogue
+
+    lines = ["| instrument | density /deg^2 | seeds | final-poses-only: assigned | lost in "
+             "motion (per field) | loop: assigned and kept | lost | s per field (final-poses "
+             "/ loop) |", "|---|---|---|---|---|---|---|---|"]
+    for inst, tel in (("sdss-v-apo", "apo"), ("sdss-v-lco", "lco")):
+        rep = Reconfiguration.from_names("sdss-v-production", inst, buffer_mm=2.0,
+                                         options=PlanOptions(resolve="replace"))
+        rc = Reconfiguration.from_names("sdss-v-production", inst, buffer_mm=2.0)
+        for density in args.loop_densities:
+            got = {"a0": [], "lost0": [], "a1": [], "lost1": [], "t0": [], "t1": []}
+            for seed in args.loop_seeds:
+                cat = field_catalogue(seed, density, 1, tel)
+                t0 = time.perf_counter()
+                a = assign(rep.geom, cat, AssignSettings(margin_mm=0.0))
+                out = rep.run(seed=seed, targets=a.angles)
+                got["t0"].append(time.perf_counter() - t0)
+                got["a0"].append(a.n_assigned)
+                got["lost0"].append(int(np.sum((a.target >= 0)
+                                               & (out.plan.status != "reached"))))
+                t0 = time.perf_counter()
+                run = plan_catalogue(rc, cat, AssignSettings(), seed=seed)
+                got["t1"].append(time.perf_counter() - t0)
+                got["a1"].append(run.summary(cat)["kept"])
+                got["lost1"].append(run.n_lost)
+            lost = got["lost0"]
+            lines.append(f"| {inst} | {density:g} | {len(args.loop_seeds)} | "
+                         f"{sum(got['a0'])} | {sum(lost)} ({min(lost)}-{max(lost)}) | "
+                         f"{sum(got['a1'])} | {sum(got['lost1'])} | "
+                         f"{np.median(got['t0']):.2f} / {np.median(got['t1']):.2f} |")
+            print(lines[-1], file=sys.stderr)
+    return lines
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--only", choices=("exact", "large", "loop"), default=None)
+    p.add_argument("--only", choices=("exact", "large", "loop", "compare"), default=None)
     p.add_argument("--loop-seeds", type=int, nargs="+", default=list(range(1, 21)))
     p.add_argument("--loop-densities", type=float, nargs="+", default=[100.0])
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
@@ -177,6 +222,8 @@ def main() -> None:
         out += run_large(args) + [""]
     if args.only in (None, "loop"):
         out += run_loop(args) + [""]
+    if args.only in (None, "compare"):
+        out += run_compare(args) + [""]
     text = "\n".join(out)
     print(text)
     if args.md_out:

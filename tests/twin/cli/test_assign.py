@@ -71,10 +71,12 @@ def test_an_unmeetable_quota_names_region_and_best_count(tmp_path):
 def test_plan_a_catalogue_keeps_every_assigned_target(tmp_path):
     out = tmp_path / "p"
     r = run("plan", "--layout", "hex:19", "--buffer", "2.0", "--telescope", "none",
-            "--catalogue", "mock:uniform:1.5/patrol", "--seed", "2", "--out", str(out))
+            "--catalogue", "mock:uniform:1.5/patrol,sky=0.3", "--sky-quota", "2", "--seed", "2",
+            "--out", str(out))
     assert r.returncode == 0, r.stderr
     s = json.loads((out / "summary.json").read_text())
     a = s["assignment"]
+    assert a["counts"]["sky"] >= 2
     assert a["kept"] == a["assigned"] > 0 and a["lost"] == 0 and a["n_rounds"] >= 1
     assert s["check2d"]["ok"]
     rows = list(csv.DictReader((out / "assignment.csv").open()))
