@@ -251,7 +251,7 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
     if not quota_rows and stats["greedy_objective"] >= easy:
         # every robot has its best weight (or every reachable target is taken): optimal
         stats["seconds"]["total"] = time.perf_counter() - t0
-        return _finish(geom, catalogue, cands, greedy_chosen, easy, "optimal", method, stats)
+        return _finish(geom, catalogue, cands, greedy_chosen, easy, "optimal", "greedy", stats)
     if method == "greedy":
         if quota_rows:
             _check_greedy_quotas(cands, greedy_chosen, quota_rows)
