@@ -56,6 +56,10 @@ from rfp_twin.validation.numerics import clamp01, segment_distance
 #: also get the hull bound in :func:`store_pose_bounds_at`, mm.
 HULL_WITHIN_MM = 1.0
 
+#: The 3D capsule bound (cheap) is taken where the prism bound is below ``tight_below`` plus
+#: this, mm; the hull bound (a 2D GJK, ~20x dearer) only below ``tight_below``.
+CAPSULE3_WITHIN_MM = 1.0
+
 #: Link kind codes used inside the kernels (index into :data:`rfp_twin.models.geometry.LINKS`).
 BODY, ALPHA, BETA, FIDUCIAL = (LINKS.index(n) for n in ("body", "alpha", "beta", "fiducial"))
 
@@ -334,7 +338,7 @@ def piece_bound_cs(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb, plane_b, s_xy,
         out = math.sqrt(x * x + dz * dz)
     else:
         out = dxy
-    if out < tight_below:
+    if out < tight_below + CAPSULE3_WITHIN_MM:
         c3 = capsule3_bound(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb, plane_b, s_xy, s_z,
                             cap)
         if c3 > out:
