@@ -34,12 +34,12 @@ from rfp_twin.models.kernel_cache import preload_cached
 from rfp_twin.models.layout import Layout, default_layout_name, layout_by_name
 from rfp_twin.models.robot import RobotSpec, load_spec
 from rfp_twin.models.trajectory import Trajectory
-from rfp_twin.planners.offline import apply_offline
+from rfp_twin.planners.plan.offline import apply_offline
 from rfp_twin.planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
-from rfp_twin.planners.solver import (ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings,
+from rfp_twin.planners.plan import (ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings,
                                       plan_reconfiguration)
 from rfp_twin.planners.stepwise import array_max_displacement
-from rfp_twin.planners.targets import random_targets
+from rfp_twin.planners.plan.targets import random_targets
 from rfp_twin.planners.postprocess.timing import BACKENDS, DEFAULT_BACKEND
 from rfp_twin.twin.outcome import Outcome
 from rfp_twin.validation.checker2d import check_trajectory
@@ -58,7 +58,7 @@ FIELD_TARGET_SLACK_MM = 0.5
 #: (:func:`rfp_twin.models.kernel_cache.preload_cached`): ~0.2 s of a Markov command.
 PLANNER_KERNEL = "rfp_twin.planners.stepwise.kernel:run_stepwise_arrays"
 DELIVER_KERNELS = tuple("rfp_twin." + k for k in (
-    "planners.plan:_build_paths", "planners.postprocess.limits:_scan",
+    "planners.plan.result:_build_paths", "planners.postprocess.limits:_scan",
     "planners.postprocess.simplify:_reversals", "planners.postprocess.simplify:_simplify_plan",
     "planners.postprocess.smoothing:_average_kernel", "planners.postprocess.smoothing:_moving_range",
     "planners.postprocess.timing.grouping:_pair_clearance_below",

@@ -26,7 +26,7 @@ Rules, as in the paper:
 * greed and phobia are per robot, so one run may mix GC robots with MC ones; an MC robot
   marked ``greedy_first`` takes its obvious move whenever it passes the step rule and
   uses the MC rules only when that move is blocked or when it is home (the deadlock
-  re-runs of :mod:`rfp_twin.planners.rerun`).
+  re-runs of :mod:`rfp_twin.planners.deadlocks.rerun`).
 
 Why a stepwise plan is collision-free in continuous time: every pair satisfies
 D > 2 sigma + MD at every step state (each mover is checked against its neighbours'
