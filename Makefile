@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_OUT ?= out/demo
 
-.PHONY: demo test bench sysdeps clean
+.PHONY: demo test bench sysdeps clean kaiju-env kaiju-check kaiju-bench
 
 # System packages: python3-venv, and Mesa's EGL / OSMesa / GL libraries for offscreen
 # MuJoCo rendering. Installed only when missing (needs root, as on the project machines).
@@ -42,6 +42,25 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_sim.py
 	$(BIN)/python benchmarks/bench_render.py
 	$(BIN)/python benchmarks/bench_postprocess.py --only backends --preset sdss-v
+
+# Optional cross-check against kaiju (SDSS-V's planner), never part of `make test`: a side
+# environment .venv-kaiju (numpy < 2) with sdss-kaiju from a wheel folder (KAIJU_WHEELS,
+# e.g. ../shared/wheels) or, without it, from the package index (its sdist needs network).
+KAIJU_VENV ?= .venv-kaiju
+KAIJU_WHEELS ?=
+KAIJU_SEEDS ?= 1-20
+KAIJU_INSTRUMENTS ?= apo,lco,curved
+KAIJU_ALGORITHMS ?= greedy,markov
+kaiju-env:
+	KAIJU_WHEELS=$(KAIJU_WHEELS) benchmarks/kaiju/setup_env.sh $(KAIJU_VENV)
+
+kaiju-check: $(STAMP) kaiju-env
+	KAIJU_PYTHON=$(KAIJU_VENV)/bin/python $(BIN)/python benchmarks/kaiju/crosscheck.py --matrix \
+	  --seeds $(KAIJU_SEEDS) --instruments $(KAIJU_INSTRUMENTS) --algorithms $(KAIJU_ALGORITHMS) \
+	  --work out/kaiju-runs --out out/kaiju-check.json
+
+kaiju-bench: $(STAMP) kaiju-env
+	KAIJU_PYTHON=$(KAIJU_VENV)/bin/python $(BIN)/python benchmarks/kaiju/bench_vs_kaiju.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

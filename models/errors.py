@@ -30,8 +30,22 @@ class PlanningError(RfpError):
     """A planner could not produce a plan that satisfies its contract."""
 
 
+class CatalogueError(RfpError):
+    """A target catalogue (file or mock) is malformed: NaN positions, repeated ids, an
+    unknown kind or fiber, a negative priority, a bad density or field centre."""
+
+
+class AssignmentError(RfpError):
+    """A fiber assignment cannot be made as asked (e.g. a sky/standard quota no
+    assignment can meet, or no target within reach of any robot)."""
+
+
 class TrajectoryError(RfpError):
     """A trajectory is malformed (unsorted times, NaN, unknown robot, bad JSON)."""
+
+
+class KindError(RfpError):
+    """A component (planner, checker, loader) was given a robot kind it does not support."""
 
 
 def field_error(cls: type[RfpError], field: str, value, allowed: str, where: str = "") -> RfpError:

@@ -19,7 +19,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from rfp_twin.models.errors import SpecError
+from rfp_twin.models.errors import KindError, SpecError
+from rfp_twin.models.kinds.base import ALPHA_BETA
 
 # The SDSS-V production numbers below are those of SDSS-V's own software: the coordinate
 # package coordio (defaults) and the production planner kaiju 1.4.1.
@@ -205,13 +206,26 @@ _COLLISION_FIELDS = {
 }
 _OPTIONAL = {"description", "path_delay_s"}
 #: Tables a preset may hold that other parts of rfp-twin read (e.g. 3D geometry).
-_OTHER_TABLES = {"geometry", "actuators", "extends"}
+_OTHER_TABLES = {"geometry", "actuators", "extends", "kind"}
+#: The robot kind of a preset without a ``kind`` key (:mod:`rfp_twin.models.kinds`).
+ALPHA_BETA_KIND = ALPHA_BETA
 
 
-def list_presets() -> list[str]:
-    """Names of the built-in presets."""
+def list_presets(kind: str | None = ALPHA_BETA_KIND) -> list[str]:
+    """Names of the built-in presets of one robot kind (the TOML's top-level ``kind``,
+    ``"alpha-beta"`` when absent; :mod:`rfp_twin.models.kinds`), or of every kind (None)."""
     root = resources.files("rfp_twin.models") / "presets"
-    return sorted(p.name[:-5] for p in root.iterdir() if p.name.endswith(".toml"))
+    names = sorted(p.name[:-5] for p in root.iterdir() if p.name.endswith(".toml"))
+    if kind is None:
+        return names
+    return [n for n in names if preset_kind(n) == kind]
+
+
+def preset_kind(name_or_path: str | Path) -> str:
+    """The robot kind a preset or robot TOML describes (its top-level ``kind`` key,
+    default ``"alpha-beta"``)."""
+    kind = _read_toml(name_or_path)[0].get("kind", ALPHA_BETA_KIND)
+    return kind if isinstance(kind, str) else repr(kind)
 
 
 def _read_toml(name_or_path: str | Path, seen: tuple[str, ...] = ()) -> tuple[dict, str]:
@@ -247,11 +261,11 @@ def _toml_text(name_or_path: str | Path) -> tuple[str, str]:
     if _looks_like_path(path):
         if not path.is_file():
             raise SpecError(f"{path}: robot spec file not found; allowed: an existing .toml file "
-                            f"or a preset ({', '.join(list_presets())})")
+                            f"or a preset ({', '.join(list_presets(None))})")
         return path.read_text(encoding="utf-8"), str(path)
     preset = resources.files("rfp_twin.models") / "presets" / f"{name_or_path}.toml"
     if not preset.is_file():
-        raise SpecError(f"unknown preset {str(name_or_path)!r}; allowed: {', '.join(list_presets())} "
+        raise SpecError(f"unknown preset {str(name_or_path)!r}; allowed: {', '.join(list_presets(None))} "
                         "or a path to a .toml file")
     return preset.read_text(encoding="utf-8"), f"{_PRESET_PREFIX}{name_or_path}"
 
@@ -267,7 +281,15 @@ def _merge(base: dict, over: dict) -> dict:
 
 
 def spec_from_dict(data: dict, source: str = "<memory>") -> RobotSpec:
-    """Build a RobotSpec from the parsed TOML tables, checking every field."""
+    """Build a RobotSpec from the parsed TOML tables, checking every field.
+
+    A file of another robot kind (``kind = "miradas-probe"``) raises
+    :class:`~rfp_twin.models.errors.KindError`: load it with
+    :func:`rfp_twin.models.kinds.load_kind`."""
+    kind = data.get("kind", ALPHA_BETA_KIND)
+    if kind != ALPHA_BETA_KIND:
+        raise KindError(f"{source}: field 'kind' = {kind!r}; allowed here: {ALPHA_BETA_KIND!r} "
+                        f"(an alpha/beta positioner: {', '.join(list_presets())})")
     unknown = set(data) - {"robot", "collision"} - _OTHER_TABLES
     if unknown:
         raise SpecError(f"{source}: unknown table(s) {sorted(unknown)}; allowed: robot, collision, "
@@ -309,6 +331,12 @@ def load_spec(name_or_path: str | Path = "sdss-v") -> RobotSpec:
 def load_tables(name_or_path: str | Path = "sdss-v") -> dict:
     """The merged TOML tables of a preset, for modules that read extra tables."""
     return _read_toml(name_or_path)[0]
+
+
+def load_tables_and_source(name_or_path: str | Path) -> tuple[dict, str]:
+    """The merged TOML tables of a preset or robot TOML and its ``source`` text (for
+    messages), for loaders of other robot kinds (:mod:`rfp_twin.models.kinds`)."""
+    return _read_toml(name_or_path)
 
 
 def spec_origin(spec: RobotSpec) -> str | None:

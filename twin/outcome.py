@@ -96,10 +96,12 @@ class Outcome:
             "wall_time_s": self.seconds.get("total", 0.0),
         }
 
-    def write(self, out: str | Path, *, summary: dict | None = None, overwrite: bool = False) -> Path:
-        """Write the run folder (atomically; an existing ``out`` only with ``overwrite``)."""
+    def write(self, out: str | Path, *, summary: dict | None = None, overwrite: bool = False,
+              extra: dict[str, str] | None = None) -> Path:
+        """Write the run folder (atomically; an existing ``out`` only with ``overwrite``;
+        ``extra``: more files {name: text})."""
         rc = self.reconfiguration
         summary = summary if summary is not None else self.summary()
         return write_run(Path(out), spec=rc.spec, layout=rc.layout, plan=self.plan,
                          trajectory=self.trajectory, summary=summary, check2d=summary["check2d"],
-                         overwrite=overwrite)
+                         overwrite=overwrite, extra=extra)

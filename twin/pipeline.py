@@ -29,11 +29,13 @@ from typing import Callable
 import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
-from rfp_twin.models.errors import PlanningError, RfpError
+from rfp_twin.models.errors import KindError, PlanningError, RfpError
 from rfp_twin.models.kernel_cache import preload_cached
 from rfp_twin.models.layout import Layout, default_layout_name, layout_by_name
-from rfp_twin.models.robot import RobotSpec, load_spec
+from rfp_twin.models.kinds import ALPHA_BETA
+from rfp_twin.models.robot import RobotSpec, load_spec, preset_kind
 from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.plan.kinds import require_planner_kind
 from rfp_twin.planners.plan.offline import apply_offline
 from rfp_twin.planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
 from rfp_twin.planners.plan import (ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings,
@@ -183,6 +185,8 @@ class Reconfiguration:
                    offline: dict[int, tuple[float, float]] | None = None) -> "Reconfiguration":
         """From a preset name / robot TOML (or a RobotSpec) and a layout name (see
         :func:`rfp_twin.models.layout.layout_by_name`; default: the preset's instrument)."""
+        if not isinstance(preset, RobotSpec):
+            _require_alpha_beta(preset, (options or PlanOptions()).algorithm)
         spec = preset if isinstance(preset, RobotSpec) else load_spec(preset)
         if buffer_mm is not None:
             spec = spec.with_overrides(buffer_mm=buffer_mm)
@@ -304,6 +308,18 @@ class Reconfiguration:
         seconds["deliver"] = time.perf_counter() - t0
         seconds["total"] = time.perf_counter() - clock
         return Outcome(self, seed, tg, plan, field, traj, post, check, seconds)
+
+
+def _require_alpha_beta(preset: str | Path, algorithm: str) -> None:
+    """The planner must support the preset's robot kind (one-line KindError naming both),
+    and this pipeline delivers alpha/beta trajectories: probe arms are planned by
+    :func:`rfp_twin.twin.probe_run.plan_probe_bench`."""
+    kind = preset_kind(preset)
+    require_planner_kind(algorithm, kind)
+    if kind != ALPHA_BETA:
+        raise KindError(f"preset {preset}: robot kind {kind!r} is planned by "
+                        "rfp_twin.twin.probe_run (rfp-twin plan --algorithm roadmap); allowed "
+                        f"here: {ALPHA_BETA!r}")
 
 
 def plan_random(geom: ArrayGeometry, seed: int, options: PlanOptions | None = None) -> tuple:

@@ -120,11 +120,12 @@ def check_output_folder(out: Path, overwrite: bool = False) -> None:
 
 
 def write_run(out: Path, *, spec: RobotSpec, layout: Layout, plan: Plan, trajectory: Trajectory,
-              summary: dict, check2d: dict, overwrite: bool = False) -> Path:
+              summary: dict, check2d: dict, overwrite: bool = False,
+              extra: dict[str, str] | None = None) -> Path:
     """Write a complete run folder at ``out`` (atomically). Returns ``out``.
 
     ``check2d`` is the full report of the independent 2D check; the summary keeps it
-    without the per-pair lists.
+    without the per-pair lists. ``extra``: more files {name: text} (an assignment.csv).
     """
     out = Path(out)
     check_output_folder(out, overwrite)
@@ -145,6 +146,8 @@ def write_run(out: Path, *, spec: RobotSpec, layout: Layout, plan: Plan, traject
         (tmp / SUMMARY).write_text(json.dumps({**summary, "check2d": brief}, indent=2,
                                               default=_json_default), encoding="utf-8")
         (tmp / CHECK2D).write_text(json.dumps(check2d, default=_json_default), encoding="utf-8")
+        for name, text in (extra or {}).items():
+            (tmp / name).write_text(text, encoding="utf-8")
         for f in tmp.iterdir():
             f.chmod(0o644)
         tmp.chmod(0o755)

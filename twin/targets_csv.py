@@ -1,4 +1,5 @@
-"""Targets from a CSV file: one row per robot, angles or fiber positions.
+"""Targets from a CSV file: one row per robot (robots left out are parked), angles or fiber
+positions.
 
 Columns: ``robot_id`` and one of
 
@@ -11,9 +12,11 @@ Positions are solved right-armed with each robot's own alpha arm and fiber
 (:func:`rfp_twin.models.kinematics.inverse_fiber`). An optional ``fiber`` column names the
 fiber of each row (``metrology``, ``boss``, ``apogee``); without it a layout that carries
 fibers uses the metrology fiber and other layouts the spec's fiber (``beta_length_mm``).
-Every robot needs exactly one row; a file that names a robot twice, names an unknown
-robot, leaves one out, holds NaN, names a fiber the robot does not carry or a position
-out of its reach is refused with the file, line and field.
+A robot has at most one row; a robot the file leaves out gets its parking pose (the
+spec's fold, turned into the robot's travel range), which the planner treats as its
+target, as a real configuration leaves robots without a target. A file that names a
+robot twice, names an unknown robot, holds NaN, names a fiber the robot does not carry or
+a position out of its reach is refused with the file, line and field.
 """
 from __future__ import annotations
 
@@ -27,6 +30,7 @@ from rfp_twin.models.errors import TargetError
 from rfp_twin.models.geometry.dimensions import SDSS_V_DEFAULTS
 from rfp_twin.models.kinematics import inverse, inverse_fiber
 from rfp_twin.models.layout.columns import FIBER_COLUMNS, FIBERS, fit_to_limits, robot_fibers
+from rfp_twin.planners.assignment import parking_angles
 
 ANGLE_COLUMNS = ("alpha_deg", "beta_deg")
 XY_COLUMNS = ("x_mm", "y_mm")
@@ -47,9 +51,10 @@ def read_targets_csv(path: str | Path, geom: ArrayGeometry) -> np.ndarray:
     if not rows:
         raise TargetError(f"{path}: no target rows")
     cols = set(rows[0])
+    # angles win over positions when a file has both (an assignment.csv carries both)
     by_angles = set(ANGLE_COLUMNS) <= cols
-    by_wok = set(WOK_COLUMNS) <= cols
-    by_xy = set(XY_COLUMNS) <= cols or by_wok
+    by_wok = set(WOK_COLUMNS) <= cols and not by_angles
+    by_xy = (set(XY_COLUMNS) <= cols or by_wok) and not by_angles
     if "robot_id" not in cols or not (by_angles or by_xy):
         raise TargetError(f"{path}: columns {sorted(cols)}; allowed: robot_id with alpha_deg,beta_deg "
                           "or x_mm,y_mm or x_wok_mm,y_wok_mm")
@@ -85,47 +90,54 @@ def read_targets_csv(path: str | Path, geom: ArrayGeometry) -> np.ndarray:
         vals[index[rid]] = v
         fiber_of[index[rid]] = fiber
         line_of[index[rid]] = line
-    missing = np.flatnonzero(np.isnan(vals[:, 0]))
-    if missing.size:
-        raise TargetError(f"{path}: robot {int(geom.robot_ids[missing[0]])} has no target row "
-                          f"({missing.size} robot(s) missing)")
+    missing = np.isnan(vals[:, 0])
     if not by_xy:
+        vals[missing] = parking_angles(geom)[missing]
         return vals
+    named = ~missing
     if by_wok:
         from rfp_twin.models.instrument import wok_to_plane
         vals = wok_to_plane(vals)
     has_fibers = any(c in geom.layout.extra for c in FIBER_COLUMNS["metrology"])
+    rows = np.flatnonzero(named)
     if not has_fibers and not np.any(fiber_of != ""):
-        angles = inverse(geom.base_xy, vals, spec.alpha_length_mm, spec.beta_length_mm,
-                         right_arm=True, ids=geom.robot_ids)
+        solved = inverse(geom.base_xy[rows], vals[rows], spec.alpha_length_mm,
+                         spec.beta_length_mm, right_arm=True, ids=geom.robot_ids[rows])
     else:
-        angles = _solve_fibers(path, geom, vals, fiber_of, line_of)
-    return _into_limits(path, geom, angles, line_of)
+        solved = _solve_fibers(path, geom, vals, fiber_of, line_of, rows)
+    angles = parking_angles(geom)
+    angles[rows] = _into_limits(path, geom, solved, line_of, rows)
+    return angles
 
 
 def _into_limits(path: Path, geom: ArrayGeometry, angles: np.ndarray,
-                 line_of: np.ndarray) -> np.ndarray:
-    """``angles`` (n, 2) deg with alpha turned into each robot's travel range; a pose whose
-    beta falls outside the robot's range (encoder offsets shift it) is out of its reach:
-    TargetError naming the file line, the robot and the range."""
-    fitted, inside = fit_to_limits(angles, geom.limits)
+                 line_of: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``angles`` (r, 2) deg of robots ``rows`` (r,) with alpha turned into each robot's
+    travel range; a pose whose beta falls outside the robot's range (encoder offsets shift
+    it) is out of its reach: TargetError naming the file line, the robot and the range."""
+    fitted, inside = fit_to_limits(angles, geom.limits[rows])
     if not inside.all():
-        k = int(np.flatnonzero(~inside)[0])
+        r = int(np.flatnonzero(~inside)[0])
+        k = int(rows[r])
         lo, hi = geom.limits[k, 2:4]
         raise TargetError(f"{path}:{int(line_of[k])}: robot {int(geom.robot_ids[k])}: the target "
-                          f"needs beta = {fitted[k, 1]:.4f} deg; allowed: [{lo:g}, {hi:g}] deg "
+                          f"needs beta = {fitted[r, 1]:.4f} deg; allowed: [{lo:g}, {hi:g}] deg "
                           "(its travel range in model angles, shifted by its encoder offsets)")
     return fitted
 
 
 def _solve_fibers(path: Path, geom: ArrayGeometry, xy: np.ndarray, fiber_of: np.ndarray,
-                  line_of: np.ndarray) -> np.ndarray:
-    """Model angles (n, 2) deg putting each row's fiber (metrology where blank) on ``xy``
-    (n, 2) mm, with each robot's own alpha arm and fibers; errors name the file line."""
+                  line_of: np.ndarray, named: np.ndarray) -> np.ndarray:
+    """Model angles (r, 2) deg of robots ``named`` (r,) putting each row's fiber (metrology
+    where blank) on ``xy`` (n, 2) mm, with each robot's own alpha arm and fibers; errors
+    name the file line."""
     fibers = robot_fibers(geom.layout, NOMINAL_FIBERS)
     out = np.empty_like(xy)
+    chosen = np.zeros(xy.shape[0], dtype=bool)
+    chosen[named] = True
     for f, fiber in enumerate(FIBERS):
-        rows = np.flatnonzero((fiber_of == fiber) | ((fiber_of == "") & (fiber == "metrology")))
+        rows = np.flatnonzero(chosen & ((fiber_of == fiber)
+                                        | ((fiber_of == "") & (fiber == "metrology"))))
         if rows.size == 0:
             continue
         try:
@@ -134,4 +146,4 @@ def _solve_fibers(path: Path, geom: ArrayGeometry, xy: np.ndarray, fiber_of: np.
         except TargetError as exc:
             k = rows[getattr(exc, "index", 0)]
             raise TargetError(f"{path}:{int(line_of[k])}: field 'fiber' = {fiber!r}: {exc}") from None
-    return out
+    return out[named]

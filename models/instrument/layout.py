@@ -16,7 +16,7 @@ axis ``kx, ky, kz`` (plane frame), plus ``hole_id``, ``hole_type``. Obstacles fo
 SDSS-V's production rules (data folder README): the fiducials as points with a 3 mm
 keep-out, the six guide cameras as segments with a 3 mm keep-out. Robots next to a
 fiducial that SDSS-V watches (``fiducialWatch``: the hole one row above, one column left
-for positive rows) get ``fiducial_watch = 1``; their motion near the fiducial is limited by
+when the robot's row is positive) get ``fiducial_watch = 1``; their motion near the fiducial is limited by
 the fiducial's keep-out itself, which every planner and checker applies.
 """
 from __future__ import annotations
@@ -120,8 +120,9 @@ def instrument_layout(source: str | Path | Calibration, name: str | None = None)
 
 
 def _fiducial_watch(cal: Calibration) -> np.ndarray:
-    """(n,) 0/1: robots in the hole one row above each fiducial (one column left for
-    positive rows), as SDSS-V's planner marks them."""
+    """(n,) 0/1: robots in the hole one row above each fiducial (one column left when that
+    hole's row is positive), as SDSS-V's planner marks them (kaiju 1.4.1
+    ``RobotGrid._load_from_tables``: fiducial R0C24 -> robot R+1C23)."""
     hole_rc = {}
     for k, h in enumerate(cal.robot_holes):
         rc = _row_col(h)
@@ -133,7 +134,9 @@ def _fiducial_watch(cal: Calibration) -> np.ndarray:
         if rc is None:
             continue
         row, col = rc
-        k = hole_rc.get((row + 1, col - 1 if row > 0 else col))
+        # the hole one row up; from row +1 on (the watched robot's row, as SDSS-V's
+        # planner tests it) the columns are numbered one further left
+        k = hole_rc.get((row + 1, col - 1 if row + 1 > 0 else col))
         if k is not None:
             out[k] = 1
     return out

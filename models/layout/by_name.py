@@ -6,7 +6,8 @@ calibrated instruments ``sdss-v-apo``, ``sdss-v-lco``, ``sdss-v-curved``
 ``sdss-v-547`` (the all-robot 13-ring grid of Sayres 2021 Sect. 3.2), ``hex:N`` (a
 centred hex grid of N positions: 7, 19, 37, 61, 91, ...), ``raft:N`` / ``raft:R=600`` (N
 triangular rafts of 63 robots, Spec-S5, or every raft inside a radius in mm:
-:mod:`rfp_twin.models.layout.rafts`) or the path of a layout CSV.
+:mod:`rfp_twin.models.layout.rafts`), ``miradas-N`` (N MIRADAS probe arms on the bench of
+the ``miradas-probe`` preset, :mod:`rfp_twin.models.kinds`) or the path of a layout CSV.
 Pitch in mm; fiducial ids turn positions of a generated grid into fiducials. A bad name
 raises :class:`rfp_twin.models.errors.LayoutError` (an unknown fiducial id
 :class:`rfp_twin.models.errors.UnknownRobotError`) with a one-line message.
@@ -78,11 +79,14 @@ def layout_by_name(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = (
             kinds[np.isin(grid.ids, fiducial_ids)] = "fiducial"
             grid = Layout(grid.ids, grid.xy, kinds, name=grid.name)
         return grid
+    if name.startswith("miradas-"):
+        from rfp_twin.models.kinds.bench import probe_bench_layout  # probe arms, Sabater 2018
+        return probe_bench_layout(name)
     if name == "raft" or name.startswith("raft:"):
         from rfp_twin.models.layout.rafts import raft_from_name  # raft:N, raft:R=600, ...
         return raft_from_name(name, pitch_mm)
     path = Path(name)
     if path.suffix.lower() != ".csv" and not path.exists():
         raise LayoutError(f"layout {name!r}: allowed: {', '.join(FIXED_LAYOUTS)}, sdss-v-547, "
-                          "hex:N, a CSV file or a calibration folder")
+                          "hex:N, a CSV file, a calibration folder, raft:N or miradas-N")
     return Layout.from_csv(path, min_separation_mm=min(1.0, pitch_mm / 4))

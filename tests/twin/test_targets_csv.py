@@ -120,3 +120,25 @@ def test_wok_positions_need_a_calibrated_instrument(tmp_path):
                  [(i, 0.0, 10.0) for i in range(7)])
     with pytest.raises(TargetError, match="x_wok_mm,y_wok_mm on layout 'hex-7'"):
         read_targets_csv(path, geom)
+
+
+def test_robots_left_out_are_parked_at_the_fold(apo, tmp_path):
+    """A file naming a few robots: they get their targets, every other robot its fold
+    (turned into its own range), for positions and for angles alike."""
+    from rfp_twin.models.layout.columns import fit_to_limits
+
+    cal = read_calibration(calibration_folder("sdss-v-apo"))
+    picked = [3, 40, 41, 200]
+    rows = [(int(cal.robot_ids[k]), *fiber_in_wok(cal, k, 30.0 + k, 120.0, 1), "boss")
+            for k in picked]
+    got = read_targets_csv(write(tmp_path / "t.csv", ["robot_id", "x_wok_mm", "y_wok_mm",
+                                                      "fiber"], rows), apo)
+    fold = fit_to_limits(np.tile(apo.spec.fold_deg, (apo.n_robots, 1)), apo.limits)[0]
+    others = np.setdiff1d(np.arange(apo.n_robots), picked)
+    assert np.array_equal(got[others], fold[others])
+    back = np.array([fiber_in_wok(cal, k, *got[k], 1) for k in picked])
+    assert np.allclose(back, [r[1:3] for r in rows], atol=1e-9)
+    ang = read_targets_csv(write(tmp_path / "a.csv", ["robot_id", "alpha_deg", "beta_deg"],
+                                 [(int(cal.robot_ids[7]), 20.0, 100.0)]), apo)
+    assert ang[7].tolist() == [20.0, 100.0]
+    assert np.array_equal(np.delete(ang, 7, axis=0), np.delete(fold, 7, axis=0))

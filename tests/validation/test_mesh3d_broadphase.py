@@ -12,6 +12,7 @@ import pytest
 
 from tests.validation.conftest import pair_layout, sdss_models, swing
 from rfp_twin.validation.mesh3d.broadphase import bound_at, capsule_min, capsule_suspects
+from rfp_twin.validation.mesh3d.check import CONTACT_MM
 from rfp_twin.validation.mesh3d.check import TIGHT_MM
 from rfp_twin.validation.mesh3d.scene import Scene
 from rfp_twin.validation.numerics import axis_csr, time_span
@@ -64,13 +65,17 @@ def test_suspect_intervals_cover_every_instant_the_bound_cannot_clear():
     n_lp = scene.n_link_pairs
     cut = np.full(n_lp, 0.5)                     # keep everything below 0.5 mm
     tolp = np.full(n_lp, TOL)
-    rows, _ = capsule_suspects(*args, THR, cut, tolp, np.arange(n_lp, dtype=np.int64))
+    rows, _ = capsule_suspects(*args, THR, cut, tolp, np.arange(n_lp, dtype=np.int64),
+                               CONTACT_MM)
     assert len(rows)
     for p in range(n_lp):
         mine = rows[rows[:, 0] == p]
         assert np.all(np.diff(mine[:, 1]) > 0) and np.all(mine[:, 2] > mine[:, 1])
         h = mine[:, 2] - mine[:, 1]
-        assert np.all((mine[:, 5] * h <= 2 * TOL + 1e-12) | (h <= RES))
+        # short enough for exact ends to settle them, or (bound at or below the threshold
+        # at both ends: a contact) at most CONTACT_MM of relative motion, handed whole
+        deep = (mine[:, 3] <= THR) & (mine[:, 4] <= THR) & (mine[:, 5] * h <= CONTACT_MM + 1e-12)
+        assert np.all((mine[:, 5] * h <= 2 * TOL + 1e-12) | (h <= RES) | deep)
         for t in times:
             c = bound(p, t)
             if c <= THR or c < cut[p] - 1e-9:
@@ -78,3 +83,7 @@ def test_suspect_intervals_cover_every_instant_the_bound_cannot_clear():
     # the contact (beta below 23.25 deg) is among them, on the beta bars
     bb = int(np.flatnonzero((scene.lp_ka == 2) & (scene.lp_kb == 2))[0])
     assert np.any((rows[:, 0] == bb) & (rows[:, 1] <= 1.0) & (1.0 <= rows[:, 2]))
+    # inside the contact the rows are long: far fewer than at 2 TOL of motion each
+    inside = rows[(rows[:, 0] == bb) & (rows[:, 3] <= THR) & (rows[:, 4] <= THR)]
+    motion = float(np.sum(inside[:, 5] * (inside[:, 2] - inside[:, 1])))
+    assert len(inside) < motion / (2 * TOL) / 5

@@ -32,7 +32,7 @@ def test_capsules_and_z_intervals_enclose_every_piece():
         oz = MODELS.offset_z[k]
         for j, piece in enumerate(GEOM.links[name].collision):
             u = MODELS.kind_ptr[k] + j
-            x0, y0, x1, y1, r = MODELS.cap[u]
+            x0, y0, x1, y1, r = MODELS.cap[u, :5]
             v = piece.vertices
             d = segment_distance_np(v[:, :2], v[:, :2], np.array([x0, y0]), np.array([x1, y1]))
             assert np.all(d <= r + 1e-9)

@@ -1,6 +1,7 @@
 """The ``rfp-twin`` command line (typer + rich): options in, pipeline out, tables printed.
 
-One module per group of commands: ``plan`` (:mod:`rfp_twin.twin.cli.plan`), ``simulate``,
+One module per group of commands: ``plan`` (:mod:`rfp_twin.twin.cli.plan`), ``assign``
+(:mod:`rfp_twin.twin.cli.assign`), ``simulate``,
 ``render``, ``record``, ``model export`` (:mod:`rfp_twin.twin.cli.run`), ``validate``,
 ``calibrate-buffer`` (:mod:`rfp_twin.twin.cli.validate`), ``study ...`` (:mod:`rfp_twin.twin.cli.study`),
 ``coverage`` (:mod:`rfp_twin.twin.cli.coverage`), ``unwind``, ``explode``
@@ -15,6 +16,7 @@ import gc
 import typer
 
 from rfp_twin.twin.cli import plan as _plan
+from rfp_twin.twin.cli.assign import assign as _assign
 from rfp_twin.twin.cli import recovery as _recovery
 from rfp_twin.twin.cli import run as _run
 from rfp_twin.twin.cli.coverage import coverage as _coverage
@@ -23,6 +25,7 @@ from rfp_twin.twin.cli.study import study_app
 from rfp_twin.twin.cli.validate import register as _register_validation
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+                  rich_markup_mode=None,
                   help="Digital twin of robotic fiber positioner arrays.")
 
 
@@ -32,6 +35,7 @@ def _root() -> None:
 
 
 app.command()(_plan.plan)
+app.command()(_assign)
 app.command()(_recovery.unwind)
 app.command()(_recovery.explode)
 app.command()(_coverage)

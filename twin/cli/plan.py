@@ -59,10 +59,30 @@ def plan(
     greed: float = typer.Option(0.9, help="Markov greed, [0, 1]."),
     phobia: float = typer.Option(0.3, help="Markov phobia, [0, 1]."),
     seed: int = typer.Option(0, help="Seed of targets, Markov moves and replacements."),
+    n_targets: Optional[int] = typer.Option(None, help="Probe-arm presets (miradas-probe): "
+                                            "this many random targets drawn with --seed "
+                                            "[default: the typical scenario, 12 arms]."),
     offline: list[str] = typer.Option([], help="Offline robot: ID (parked folded) or ID:ALPHA:BETA; "
                                       "repeat or comma-separate."),
     targets: Optional[Path] = typer.Option(None, help="Targets CSV (robot_id + alpha_deg,beta_deg or "
-                                           "x_mm,y_mm) [default: seeded random]."),
+                                           "x_mm,y_mm; robots left out are parked at the "
+                                           "fold) [default: seeded random]."),
+    catalogue: Optional[str] = typer.Option(None, help="Plan a target catalogue instead: assign "
+                                            "it (collision-aware, rfp-twin assign), plan, and "
+                                            "assign again without the targets the plan did "
+                                            "not keep, until it keeps them all. A CSV/Parquet "
+                                            "file or mock:uniform|clustered:DENSITY[/deg2|"
+                                            "/patrol][,...] (see rfp-twin assign --help)."),
+    telescope: str = typer.Option("auto", help="--catalogue: plate scale and field (auto | apo "
+                                  "| lco | none)."),
+    field_centre: Optional[str] = typer.Option(None, help="--catalogue: RA,DEC of the field "
+                                               "centre, deg (ra_deg,dec_deg catalogues)."),
+    assign_solver: str = typer.Option("auto", help="--catalogue: auto | highs | cpsat | "
+                                      "greedy."),
+    arms: str = typer.Option("right", help="--catalogue: arm solutions assigned: right | both "
+                             "| left."),
+    assign_rounds: int = typer.Option(5, help="--catalogue: assign -> plan rounds at most, "
+                                      ">= 1."),
     direction: str = typer.Option("reverse", help="reverse (targets->fold, reversed) | forward"),
     resolve: str = typer.Option("search", help="Deadlocks left by greedy/markov/roadmap: search "
                                 "(re-run with greedy-first Markov robots around the groups, then "
@@ -103,11 +123,17 @@ def plan(
     acceleration limits (interacting robots share one path parameter), simplified to at most
     --max-points per axis and verified again at buffer - budget."""
     t_import = time.perf_counter()
-    from rfp_twin.models.robot import load_spec
+    from rfp_twin.models.kinds import ALPHA_BETA
+    from rfp_twin.models.robot import load_spec, preset_kind
     from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
     from rfp_twin.twin.run_dir import check_output_folder
 
     check_output_folder(out, force)
+    if preset_kind(preset) != ALPHA_BETA:             # probe arms: their own planner
+        from rfp_twin.twin.cli.probe import plan_probe_cli
+
+        plan_probe_cli(preset, layout, algorithm, seed, n_targets, out, force)
+        return
 
     t_start = time.perf_counter()
     options = PlanOptions(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,
@@ -120,7 +146,24 @@ def plan(
     rc = Reconfiguration.from_names(spec, layout, buffer_mm=buffer,
                                     fiducial_ids=parse_ids(fiducials, "--fiducials"),
                                     options=options, offline=parse_offline(offline, spec.fold_deg))
+    if catalogue is not None and targets is not None:
+        raise TargetError(f"--targets {str(targets)!r} and --catalogue {catalogue!r}; allowed: "
+                          "one of them")
     tg = rc.read_targets(targets) if targets is not None else None
+    if assign_rounds < 1:
+        raise TargetError(f"--assign-rounds {assign_rounds}; allowed: >= 1")
+    cat = None
+    if catalogue is not None:
+        from rfp_twin.planners.assignment import AssignSettings
+        from rfp_twin.twin.catalogue_source import load_catalogue, parse_centre, telescope_for
+        from rfp_twin.twin.cli.assign import parse_arms
+
+        assign_settings = AssignSettings(solver=assign_solver, arms=parse_arms(arms))
+        cat = load_catalogue(catalogue, rc.geom, telescope=telescope_for(telescope, layout,
+                                                                          spec.name),
+                             field_centre=parse_centre(field_centre), seed=seed)
+        if flow != "twin":
+            raise TargetError(f"--catalogue with --flow {flow!r}; allowed: --flow twin")
     if flow not in ("twin", "jaeger"):
         raise TargetError(f"--flow {flow!r}; allowed: twin, jaeger")
     if flow == "jaeger":
@@ -146,10 +189,28 @@ def plan(
             progress.update(task, completed=done, total=total,
                             description=f"{n} robots: {name}, groups timed")
 
-        outcome = rc.run(seed=seed, targets=tg, on_round=on_round, on_stage=on_stage,
-                         on_progress=on_progress)
+        loop = None
+        if cat is None:
+            outcome = rc.run(seed=seed, targets=tg, on_round=on_round, on_stage=on_stage,
+                             on_progress=on_progress)
+        else:
+            from rfp_twin.twin.plannable import plan_catalogue
+
+            loop = plan_catalogue(rc, cat, assign_settings, seed=seed, max_rounds=assign_rounds,
+                                  on_round=lambda k, info: progress.update(
+                                      task, description=f"{n} robots: assignment round {k}, "
+                                      f"{info['lost']} target(s) lost"),
+                                  on_stage=on_stage, on_progress=on_progress)
+            outcome = loop.outcome
     t_run = time.perf_counter()
     summary = outcome.summary(layout=layout)
+    extra = None
+    if loop is not None:
+        from rfp_twin.twin.assignment_files import assignment_csv
+
+        summary["assignment"] = loop.summary(cat)
+        generic = not any(c in rc.layout.extra for c in ("boss_x_mm", "apogee_x_mm"))
+        extra = {"assignment.csv": assignment_csv(loop.assignment, cat, generic)}
     summary["wall_time_s"] = time.perf_counter() - t_start
     summary["stage_wall_s"] = {"imports": t_start - t_import, "setup": t_setup - t_start,
                                **{k: outcome.seconds[k] for k in ("targets", "plan", "deliver")},
@@ -158,8 +219,11 @@ def plan(
     if not check.ok:
         raise fail(f"the plan fails the 2D check: {len(check.collisions)} collision(s), min "
                    f"clearance {check.min_clearance_mm:.4f} mm; nothing written", EXIT_COLLISION)
-    outcome.write(out, summary=summary, overwrite=force)
+    outcome.write(out, summary=summary, overwrite=force, extra=extra)
     print_summary(summary, out)
+    if loop is not None and loop.n_lost:
+        raise fail(f"{loop.n_lost} assigned target(s) not kept by the plan after "
+                   f"{len(loop.rounds)} round(s); see {out}/summary.json", EXIT_INCOMPLETE)
     if outcome.n_deadlocked:
         raise fail(f"{outcome.n_deadlocked} robot(s) still deadlocked after "
                    f"{summary['metrics']['rounds']} round(s); see {out}/targets.csv", EXIT_INCOMPLETE)
@@ -230,6 +294,19 @@ def print_summary(summary: dict, out: Path) -> None:
         rows.insert(-1, ("post-processing", f"{p['stage_seconds'].get('total', 0.0):.2f} s, "
                                             f"{p['n_groups']} groups (largest {p['largest_group']})"))
         rows.insert(-1, ("groups timed by", solvers or "-"))
+    a = summary.get("assignment")
+    if a:
+        lost = ", ".join(str(r["lost"]) for r in a["rounds"])
+        rows[:0] = [
+            ("catalogue", f"{a['n_targets']} targets ({a['catalogue']})"),
+            ("assigned / kept by the plan", f"{a['assigned']} / {a['kept']} ({a['counts']['parked']} "
+                                            "parked)"),
+            ("assignment rounds (lost per round)", f"{a['n_rounds']} ({lost})"),
+            ("objective / bound", f"{a['objective']:g} / {a['bound']:g} ({a['solver']}, "
+                                  f"{a['status']})"),
+            *([("science completeness", f"{100 * a['science_completeness']:.1f} %")]
+              if a.get("science_completeness") is not None else []),
+        ]
     for k, v in rows:
         t.add_row(k, v)
     console.print(t)

@@ -21,7 +21,7 @@ from rfp_twin.twin.cli.motion_option import (SOURCE_HELP, MotionOptions, angles_
                                              load_motion, preset_option)
 from rfp_twin.twin.cli.plan import parse_ids
 
-model_app = typer.Typer(no_args_is_help=True, help="The MuJoCo model of an array.")
+model_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None, help="The MuJoCo model of an array.")
 
 #: Fault options: (option, fault class name in rfp_twin.twin.sim, number of fields, form).
 TILE_HELP = ("Simulate in tiles of at most this many robots (0: one MuJoCo model) [default: "

@@ -28,7 +28,7 @@ from rfp_twin.twin.cores import usable_cores
 #: Trend checks printed one per line; more are summed up in one line.
 MAX_TRENDS_SHOWN = 8
 
-study_app = typer.Typer(add_completion=False, no_args_is_help=True,
+study_app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
                         pretty_exceptions_enable=False,
                         help="Design studies: thousands of simulated reconfigurations on Dask, "
                              "stored as Parquet, reported as figures.")

@@ -1,8 +1,11 @@
 """Lower bounds of the 3D distance of two posed links (numba kernels; mm, rad).
 
-Every convex collision piece is enclosed twice, in the frame of its link
+Every convex collision piece is enclosed three times, in the frame of its link
 (:class:`rfp_twin.validation.mesh3d.links.LinkModels`):
 
+* a *3D capsule* (sphere-swept segment, fitted to the piece's vertices): tight for
+  pieces that lean, such as the P1 prototype's rising tube, where the prisms below
+  span the whole height of the lean;
 * a vertical *capsule prism*: a 2D capsule (segment + radius, fitted to the piece's
   vertices so that every vertex is inside; a capsule is convex, so the whole piece is)
   times the piece's z interval;
@@ -214,6 +217,72 @@ def poly_lower_bound(u, v, ca, sa, xa, ya, cb, sb, xb, yb, pptr, pxy):
 
 
 @njit(cache=True)
+def segment_distance3(p0x, p0y, p0z, p1x, p1y, p1z, q0x, q0y, q0z, q1x, q1y, q1z):
+    """Distance of the 3D segments p0-p1 and q0-q1, mm (closest points of the two
+    segments, clamped; either may be a point)."""
+    d1x, d1y, d1z = p1x - p0x, p1y - p0y, p1z - p0z
+    d2x, d2y, d2z = q1x - q0x, q1y - q0y, q1z - q0z
+    rx, ry, rz = p0x - q0x, p0y - q0y, p0z - q0z
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    if a <= 1e-18 and e <= 1e-18:
+        s = 0.0
+        t = 0.0
+    elif a <= 1e-18:
+        s = 0.0
+        t = clamp01(f / e)
+    else:
+        c = d1x * rx + d1y * ry + d1z * rz
+        if e <= 1e-18:
+            t = 0.0
+            s = clamp01(-c / a)
+        else:
+            b = d1x * d2x + d1y * d2y + d1z * d2z
+            den = a * e - b * b
+            s = clamp01((b * f - c * e) / den) if den > 1e-18 * a * e else 0.0
+            t = (b * s + f) / e
+            if t < 0.0:
+                t = 0.0
+                s = clamp01(-c / a)
+            elif t > 1.0:
+                t = 1.0
+                s = clamp01((b - c) / a)
+    dx = p0x + d1x * s - q0x - d2x * t
+    dy = p0y + d1y * s - q0y - d2y * t
+    dz = p0z + d1z * s - q0z - d2z * t
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@njit(cache=True)
+def capsule3_bound(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb, plane_b, s_xy, s_z, cap):
+    """Lower bound from the 3D capsules of pieces u and v (``cap`` columns 5-11), mm.
+
+    Each capsule is posed (rotation ``(c, s)``, offset ``(x, y)``) and its axis lifted by
+    its height plane ``z0 + g . (x, y)`` (an affine shear: the segment stays a segment;
+    a ball of radius r becomes a set within ``r (1 + |g|)`` of its sheared centre); the
+    slacks are subtracted. Negative when the capsules overlap.
+    """
+    z0a, gxa, gya = plane_a
+    z0b, gxb, gyb = plane_b
+    a0x = xa + ca * cap[u, 5] - sa * cap[u, 6]
+    a0y = ya + sa * cap[u, 5] + ca * cap[u, 6]
+    a1x = xa + ca * cap[u, 8] - sa * cap[u, 9]
+    a1y = ya + sa * cap[u, 8] + ca * cap[u, 9]
+    b0x = xb + cb * cap[v, 5] - sb * cap[v, 6]
+    b0y = yb + sb * cap[v, 5] + cb * cap[v, 6]
+    b1x = xb + cb * cap[v, 8] - sb * cap[v, 9]
+    b1y = yb + sb * cap[v, 8] + cb * cap[v, 9]
+    d = segment_distance3(a0x, a0y, cap[u, 7] + z0a + gxa * a0x + gya * a0y,
+                          a1x, a1y, cap[u, 10] + z0a + gxa * a1x + gya * a1y,
+                          b0x, b0y, cap[v, 7] + z0b + gxb * b0x + gyb * b0y,
+                          b1x, b1y, cap[v, 10] + z0b + gxb * b1x + gyb * b1y)
+    grow_a = 1.0 + math.sqrt(gxa * gxa + gya * gya)
+    grow_b = 1.0 + math.sqrt(gxb * gxb + gyb * gyb)
+    return d - cap[u, 11] * grow_a - cap[v, 11] * grow_b - s_xy - s_z
+
+
+@njit(cache=True)
 def piece_bound(u, v, tha, xa, ya, thb, xb, yb, cap, zlim, pptr, pxy, tight_below):
     """Lower bound of the distance of pieces u (pose a) and v (pose b), mm (links at
     height 0, exact poses: :func:`piece_bound_at` with zero planes and slacks)."""
@@ -227,9 +296,11 @@ def piece_bound_at(u, v, tha, xa, ya, plane_a, thb, xb, yb, plane_b, s_xy, s_z, 
     """Lower bound of the distance of pieces u (pose a, height plane ``plane_a``) and v
     (pose b, ``plane_b``), mm, with slacks ``s_xy``, ``s_z`` (mm, see the module docstring).
 
-    Capsule prisms first; where that is below ``tight_below`` the vertical prisms of
-    the pieces' xy hulls (GJK lower bound) too, keeping the larger. Both are lower
-    bounds of the true distance and Lipschitz in time with the link speed bounds.
+    Capsule prisms first; where that is below ``tight_below`` the 3D capsules
+    (:func:`capsule3_bound`), then where still below it the vertical prisms of the
+    pieces' xy hulls (GJK lower bound), keeping the largest. Each is a lower bound of the
+    true distance (the interval bounds of :mod:`rfp_twin.validation.mesh3d.broadphase`
+    need no more: they rest on the true distance being Lipschitz).
     """
     ca = math.cos(tha)
     sa = math.sin(tha)
@@ -253,6 +324,11 @@ def piece_bound_at(u, v, tha, xa, ya, plane_a, thb, xb, yb, plane_b, s_xy, s_z, 
         out = math.sqrt(x * x + dz * dz)
     else:
         out = dxy
+    if out < tight_below:
+        c3 = capsule3_bound(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb, plane_b, s_xy, s_z,
+                            cap)
+        if c3 > out:
+            out = c3
     if out < tight_below:
         lp = max(poly_lower_bound(u, v, ca, sa, xa, ya, cb, sb, xb, yb, pptr, pxy) - s_xy, 0.0)
         f = math.sqrt(lp * lp + dz * dz) if dz > 0.0 else lp

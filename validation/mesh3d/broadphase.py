@@ -208,9 +208,15 @@ def _grow(buf, n):
 def capsule_suspects(lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
                      pa, ta, aa, ra, pb, tb, ab, rb, kptr, cap, zlim, pptr, pxy, rad_a, rad_b,
                      vglob, vmean, t_lo, t_hi, coarse_mm, tight_mm, resolution, thr, cut, tolp,
-                     sel):
+                     sel, contact_mm):
     """Intervals the lower bound C cannot clear against ``max(thr, cut[p])``, for the
     link pairs ``sel``.
+
+    An interval is split until its relative motion ``L h`` is at most ``2 tolp[p]``, except
+    where C is at or below ``thr`` at both ends (a contact, or a bound too loose to tell):
+    there intervals of up to ``contact_mm`` of relative motion are emitted whole, and the
+    exact step settles them (a contact throughout in one or two exact distances, a near
+    miss by bisection on exact values).
 
     Returns (rows (m, 6): p, a, b, C(a), C(b), local speed bound L; evaluations).
     Rows of one pair are in time order; consecutive rows may share an end.
@@ -250,7 +256,8 @@ def capsule_suspects(lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
                 lb = 0.5 * (fa + fb - loc * h)
                 if lb > thr and lb >= want:
                     continue
-                if loc * h > 2.0 * tolp[p] and h > resolution and top + 2 <= STACK:
+                deep = fa <= thr and fb <= thr and loc * h <= contact_mm
+                if loc * h > 2.0 * tolp[p] and h > resolution and top + 2 <= STACK and not deep:
                     m = a + 0.5 * h
                     fm = bound_at(p, m, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
                                   pa, ta, aa, pb, tb, ab, kptr, cap, zlim, pptr, pxy, tight)

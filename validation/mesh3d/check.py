@@ -81,6 +81,9 @@ from rfp_twin.validation.numerics import axis_csr, checked_float, time_span
 #: Samples whose capsule bound is within this of the current cut also get the (slower,
 #: tighter) hull-prism bound, mm.
 TIGHT_MM = 1.0
+#: Relative motion (mm) of a suspect interval whose capsule bound is at or below the
+#: threshold at both ends, handed whole to the exact step (:func:`capsule_suspects`).
+CONTACT_MM = 8.0
 
 
 def _positive(value, name: str, allow_zero: bool = False) -> float:
@@ -272,7 +275,7 @@ def validate_trajectory(traj: Trajectory, spec: RobotSpec, layout: Layout,
         done = (cert > thr) & (cert >= cut - 1e-9 * (1.0 + np.abs(cut)))
         sel = np.flatnonzero(~done).astype(np.int64)
         rows, ne = capsule_suspects(*kern, *traj_a, *geo, vglob, vmean, t_lo, t_hi, coarse,
-                                    TIGHT_MM, res, thr, cut, tolp, sel)
+                                    TIGHT_MM, res, thr, cut, tolp, sel, CONTACT_MM)
         n_cap += int(ne)
     else:
         rows = np.zeros((0, 6))

@@ -112,7 +112,48 @@ def _points_to_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarra
     d = b - a
     dd = float(d @ d)
     t = np.zeros(len(p)) if dd <= POINT_EPS2 else np.clip((p - a) @ d / dd, 0.0, 1.0)
-    return np.hypot(*(p - (a + t[:, None] * d)).T)
+    return np.linalg.norm(p - (a + t[:, None] * d), axis=1)
+
+
+def fit_capsule_3d(points: np.ndarray, n_radii: int = 24) -> tuple[np.ndarray, float]:
+    """A 3D capsule (sphere-swept segment) enclosing every point: :func:`fit_capsule` in
+    3D (segment on the principal axis, smallest volume over candidate radii, the radius
+    re-measured). A convex piece whose vertices it encloses lies inside it.
+
+    Parameters
+    ----------
+    points : (k, 3) float, mm
+
+    Returns
+    -------
+    segment : (2, 3) float64, mm
+    radius : float, mm
+    """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    c = p.mean(axis=0)
+    q = p - c
+    if len(p) >= 2 and np.ptp(q, axis=0).max() > 0:
+        _, _, vt = np.linalg.svd(q, full_matrices=False)
+        u = vt[0]
+    else:
+        u = np.array([1.0, 0.0, 0.0])
+    s = q @ u
+    w = np.linalg.norm(q - s[:, None] * u, axis=1)
+    r_min = float(w.max())
+    r_max = max(r_min, float(np.hypot(s, w).max()))
+    best = None
+    for r in np.linspace(r_min, r_max, n_radii) if r_max > r_min else [r_min]:
+        reach = np.sqrt(np.maximum(r * r - w * w, 0.0))
+        s1 = float(np.max(s - reach))
+        s0 = float(np.min(s + reach))
+        if s0 > s1:
+            s0 = s1 = 0.5 * (s0 + s1)
+        seg = np.array([c + s0 * u, c + s1 * u])
+        rad = float(_points_to_segment(p, seg[0], seg[1]).max())
+        volume = math.pi * rad * rad * (s1 - s0) + 4.0 / 3.0 * math.pi * rad ** 3
+        if best is None or volume < best[0] - 1e-12:
+            best = (volume, seg, rad)
+    return best[1], best[2]
 
 
 def _piece(piece, oz: float) -> dict:
@@ -120,12 +161,15 @@ def _piece(piece, oz: float) -> dict:
     half-spaces, probe vertex and xy hull of one convex piece."""
     v = np.asarray(piece.vertices, dtype=np.float64)
     seg, rad = fit_capsule(v[:, :2])
+    seg3, rad3 = fit_capsule_3d(v)
     xy = v[:, :2]
     try:
         poly = xy[ConvexHull(xy).vertices]
     except Exception:  # noqa: BLE001 (degenerate projection: a segment)
         poly = xy[[int(np.argmin(xy @ (seg[1] - seg[0]))), int(np.argmax(xy @ (seg[1] - seg[0])))]]
-    return {"cap": [seg[0, 0], seg[0, 1], seg[1, 0], seg[1, 1], rad],
+    return {"cap": [seg[0, 0], seg[0, 1], seg[1, 0], seg[1, 1], rad,
+                    seg3[0, 0], seg3[0, 1], seg3[0, 2] + oz, seg3[1, 0], seg3[1, 1],
+                    seg3[1, 2] + oz, rad3],
             "zlim": [float(v[:, 2].min()) + oz, float(v[:, 2].max()) + oz],
             "rmax": max(float(np.hypot(v[:, 0], v[:, 1]).max()),
                         float(np.hypot(seg[:, 0], seg[:, 1]).max())),
@@ -176,8 +220,12 @@ class LinkModels:
     kind_ptr : (K + 1,) int64
         Pieces of link kind ``k`` (index into :attr:`kind_names`) are
         ``kind_ptr[k]:kind_ptr[k + 1]``.
-    cap : (P, 5) float64
-        Capsule of each piece in its link frame: ``x0, y0, x1, y1, radius``, mm.
+    cap : (P, 12) float64
+        Two capsules enclosing each piece, in its link frame (z in the robot frame, as
+        :attr:`zlim`), mm: columns 0-4 the 2D capsule of its xy projection ``x0, y0, x1,
+        y1, radius`` (:func:`fit_capsule`), columns 5-11 a 3D capsule ``x0, y0, z0, x1,
+        y1, z1, radius`` (:func:`fit_capsule_3d`; tight for tilted pieces such as P1's
+        rising tube, whose xy capsule times its z interval is not).
     zlim : (P, 2) float64
         z interval of each piece in the robot frame, mm.
     rad_alpha, rad_beta : (K,) float64

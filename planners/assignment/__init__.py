@@ -1,0 +1,20 @@
+"""Collision-aware fiber assignment: a target catalogue -> one pose per robot.
+
+- :mod:`rfp_twin.planners.assignment.candidates`: (robot, target, arm, fiber) poses within
+  reach, inside each robot's range and clear of obstacles; parking poses
+- :mod:`rfp_twin.planners.assignment.conflicts`: pairs (cliques) of poses that collide
+- :mod:`rfp_twin.planners.assignment.problem`: the 0/1 program and its independent components
+- :mod:`rfp_twin.planners.assignment.solvers`: CP-SAT and HiGHS backends
+- :mod:`rfp_twin.planners.assignment.greedy`: greedy + local improvement (numba)
+- :mod:`rfp_twin.planners.assignment.assign`: :func:`assign`, :class:`AssignSettings`,
+  :class:`Quotas`, :class:`Assignment`
+"""
+from rfp_twin.planners.assignment.assign import (DEFAULT_EXACT, MAX_EXACT_ROBOTS, METHODS,
+                                                 AssignSettings, Assignment, Quotas, assign,
+                                                 relaxed_bound)
+from rfp_twin.planners.assignment.candidates import (ARMS, LEFT, PARKED, RIGHT, Candidates,
+                                                     build_candidates, parking_angles)
+
+__all__ = ["ARMS", "DEFAULT_EXACT", "LEFT", "MAX_EXACT_ROBOTS", "METHODS", "PARKED", "RIGHT",
+           "AssignSettings", "Assignment", "Candidates", "Quotas", "assign", "build_candidates",
+           "parking_angles", "relaxed_bound"]

@@ -1,0 +1,182 @@
+"""The fast assignment heuristic: greedy by priority, then local improvement (numba).
+
+Greedy: target candidates in order of decreasing weight (ties: fewer robots that can
+take the target first, then catalogue order); a candidate is taken when its robot is
+still parked, its target is free, and its pose keeps clear of every neighbour's current
+pose (a parked neighbour's fold included), so the assignment is feasible at every step.
+
+Local improvement (repeated sweeps until nothing changes or ``max_sweeps``): for each
+robot and each of its candidates worth more than its current pose: take it when its
+target is free and it collides with no neighbour; when exactly one other robot ``j`` is
+in the way (``j`` holds the target, or ``j``'s pose collides with the new one), look for
+another pose of ``j`` (a free target, the one the first robot lets go, or its parking)
+clear of the new pose and of ``j``'s other neighbours, and make both moves when the sum
+of the two weights grows. Each accepted move raises the objective, so the sweeps end.
+
+Robots are indices, candidates as :class:`rfp_twin.planners.assignment.candidates.Candidates`.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from rfp_twin.models.geometry2d import segments_within
+
+
+@njit(cache=True, inline="always")
+def _clash(seg, a, b, r):
+    return segments_within(seg[a, 0], seg[a, 1], seg[a, 2], seg[a, 3],
+                           seg[b, 0], seg[b, 1], seg[b, 2], seg[b, 3], r)
+
+
+@njit(cache=True)
+def _clear_of_neighbours(seg, i, a, chosen, nbr_ptr, nbr_idx, buffer, margin, skip):
+    """True when candidate ``a`` of robot ``i`` clears every neighbour's current pose
+    (neighbour ``skip`` ignored; -1: none)."""
+    for q in range(nbr_ptr[i], nbr_ptr[i + 1]):
+        j = nbr_idx[q]
+        if j == skip:
+            continue
+        if _clash(seg, a, chosen[j], buffer[i] + buffer[j] + margin):
+            return False
+    return True
+
+
+@njit(cache=True)
+def greedy_kernel(seg, robot, target, weight, ptr, order, n_targets, nbr_ptr, nbr_idx, buffer,
+                  margin, chosen, allowed):
+    """Greedy pass over ``order`` (candidate indices): fills ``chosen`` (n,) with one
+    candidate per robot (start: parking). ``allowed`` (c,) bool: candidates it may take."""
+    taken = np.zeros(n_targets, dtype=np.bool_)
+    for i in range(chosen.shape[0]):
+        if target[chosen[i]] >= 0:
+            taken[target[chosen[i]]] = True
+    for k in range(order.shape[0]):
+        a = order[k]
+        i = robot[a]
+        t = target[a]
+        if t < 0 or not allowed[a] or target[chosen[i]] >= 0 or taken[t]:
+            continue
+        if _clear_of_neighbours(seg, i, a, chosen, nbr_ptr, nbr_idx, buffer, margin, -1):
+            chosen[i] = a
+            taken[t] = True
+
+
+@njit(cache=True)
+def improve_kernel(seg, robot, target, weight, ptr, n_targets, nbr_ptr, nbr_idx, buffer,
+                   margin, chosen, allowed, max_sweeps):
+    """Local improvement of ``chosen`` in place (module docstring); returns the sweeps run."""
+    n = chosen.shape[0]
+    holder = np.full(max(n_targets, 1), -1, dtype=np.int64)
+    for i in range(n):
+        if target[chosen[i]] >= 0:
+            holder[target[chosen[i]]] = i
+    sweeps = 0
+    changed = True
+    while changed and sweeps < max_sweeps:
+        changed = False
+        sweeps += 1
+        for i in range(n):
+            for a in range(ptr[i], ptr[i + 1]):
+                cur = chosen[i]
+                if not allowed[a] or weight[a] <= weight[cur] or a == cur:
+                    continue
+                t = target[a]
+                # the robots in the way of a: the holder of its target, and neighbours whose
+                # poses collide with it; at most one may be moved
+                hit = -1
+                n_hit = 0
+                if t >= 0 and holder[t] >= 0 and holder[t] != i:
+                    hit = holder[t]
+                    n_hit = 1
+                for q in range(nbr_ptr[i], nbr_ptr[i + 1]):
+                    j = nbr_idx[q]
+                    if j == hit:
+                        continue
+                    if _clash(seg, a, chosen[j], buffer[i] + buffer[j] + margin):
+                        n_hit += 1
+                        hit = j
+                        if n_hit > 1:
+                            break
+                if n_hit > 1:
+                    continue
+                if n_hit == 0:
+                    _move(i, a, chosen, target, holder)
+                    changed = True
+                    continue
+                j = hit
+                cj = chosen[j]
+                best = -1
+                best_gain = 1e-12
+                for b in range(ptr[j], ptr[j + 1]):
+                    if b == cj or not allowed[b]:
+                        continue
+                    tb = target[b]
+                    if tb >= 0 and (tb == t or (holder[tb] >= 0 and holder[tb] != j
+                                                and holder[tb] != i)):
+                        continue
+                    if tb >= 0 and holder[tb] == i and tb != target[cur]:
+                        continue
+                    gain = weight[a] - weight[cur] + weight[b] - weight[cj]
+                    if gain <= best_gain:
+                        continue
+                    if _clash(seg, a, b, buffer[i] + buffer[j] + margin):
+                        continue
+                    if not _clear_of_neighbours(seg, j, b, chosen, nbr_ptr, nbr_idx, buffer,
+                                                margin, i):
+                        continue
+                    best = b
+                    best_gain = gain
+                if best >= 0:
+                    _release(j, chosen, target, holder)
+                    _move(i, a, chosen, target, holder)
+                    _move(j, best, chosen, target, holder)
+                    changed = True
+    return sweeps
+
+
+@njit(cache=True, inline="always")
+def _release(i, chosen, target, holder):
+    """Robot i lets go of its target (its pose is about to change)."""
+    t = target[chosen[i]]
+    if t >= 0 and holder[t] == i:
+        holder[t] = -1
+
+
+@njit(cache=True, inline="always")
+def _move(i, a, chosen, target, holder):
+    """Robot i takes pose a (its old target released, a's target held)."""
+    _release(i, chosen, target, holder)
+    chosen[i] = a
+    if target[a] >= 0:
+        holder[target[a]] = i
+
+
+def greedy_order(cands, n_targets: int, degree: np.ndarray | None = None) -> np.ndarray:
+    """Target candidates by decreasing weight, then fewest other poses excluded (the poses
+    of other robots it collides with, ``degree`` (c,), plus the other candidates of its
+    target), then candidate index (deterministic): the minimum-degree rule of greedy
+    independent sets."""
+    tgt = cands.target
+    real = np.flatnonzero(tgt >= 0)
+    per_target = np.bincount(tgt[real], minlength=max(n_targets, 1))
+    key = per_target[tgt[real]] + (0 if degree is None else degree[real])
+    order = np.lexsort((real, key, -cands.weight[real]))
+    return real[order].astype(np.int64)
+
+
+def greedy_assign(cands, n_targets: int, nbr_ptr: np.ndarray, nbr_idx: np.ndarray,
+                  buffer: np.ndarray, margin_mm: float, *, allowed: np.ndarray | None = None,
+                  degree: np.ndarray | None = None,
+                  max_sweeps: int = 20) -> tuple[np.ndarray, int]:
+    """Greedy + local improvement: ``(chosen (n,) candidate per robot, sweeps)``;
+    ``degree``: see :func:`greedy_order`."""
+    allowed = np.ones(cands.n, dtype=bool) if allowed is None else allowed
+    chosen = cands.parking.astype(np.int64).copy()
+    greedy_kernel(cands.seg, cands.robot, cands.target, cands.weight, cands.ptr,
+                  greedy_order(cands, n_targets, degree), n_targets, nbr_ptr, nbr_idx, buffer,
+                  float(margin_mm), chosen, allowed)
+    sweeps = improve_kernel(cands.seg, cands.robot, cands.target, cands.weight, cands.ptr,
+                            n_targets, nbr_ptr, nbr_idx, buffer, float(margin_mm), chosen,
+                            allowed, int(max_sweeps))
+    return chosen, int(sweeps)

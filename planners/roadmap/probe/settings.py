@@ -1,0 +1,68 @@
+"""ProbePlanSettings: Sabater et al. 2018's planning parameters for probe arms (Sect. 8).
+
+Defaults are the paper's: an 8 x 6 roadmap grid with random extra edges (more than 64
+routes per arm), routes estimated over 120 s discarded, ``dt`` = 6 s motion actions,
+``dt_col`` = 100 ms collision checks, at most one start-stop cycle per arm, priorities
+by estimated travel time. Units: s.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from rfp_twin.models.errors import SpecError, field_error
+
+#: Priority policies: the paper's (longest estimated travel time first), or a random
+#: order drawn from the plan's generator.
+PRIORITIES = ("travel-time", "random")
+
+
+@dataclass(frozen=True)
+class ProbePlanSettings:
+    """How probe arms are planned.
+
+    Attributes
+    ----------
+    dt_s : float, duration of one motion action (Sabater's Delta t), s
+    dt_col_s : float, collision-check spacing (Delta t_col), s; dt / dt_col whole
+    max_start_stop : int, start-stop cycles allowed per arm (nSSC)
+    grid : (int, int), roadmap grid points per joint (theta1, theta2)
+    n_random_edges : int, random disjoint vertex pairs tried as extra edges (each feasible
+        one gives two routes; 24 uses about every vertex of the 8 x 6 grid)
+    min_routes : int, routes per arm at least (Sect. 8: more than 64), made up with
+        further random vertex pairs when the disjoint random edges leave fewer
+    max_path_time_s : float, routes with a longer estimated travel time (Eq. 5) are
+        discarded
+    horizon_s : float, T_f: nodes at or after this time are not expanded, so every arm
+        arrives by then (the paper's 120 s configuration-time goal)
+    priority : "travel-time" (Sect. 7) | "random"
+    """
+
+    dt_s: float = 6.0
+    dt_col_s: float = 0.1
+    max_start_stop: int = 1
+    grid: tuple[int, int] = (8, 6)
+    n_random_edges: int = 24
+    min_routes: int = 64
+    max_path_time_s: float = 120.0
+    horizon_s: float = 120.0
+    priority: str = "travel-time"
+
+    def __post_init__(self) -> None:
+        where = "ProbePlanSettings"
+        for name in ("dt_s", "dt_col_s", "max_path_time_s", "horizon_s"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise field_error(SpecError, name, v, "a finite number > 0 s", where)
+        ratio = self.dt_s / self.dt_col_s
+        if abs(ratio - round(ratio)) > 1e-9:
+            raise field_error(SpecError, "dt_col_s", self.dt_col_s, "dt_s / n for a whole n", where)
+        if not isinstance(self.max_start_stop, int) or self.max_start_stop < 0:
+            raise field_error(SpecError, "max_start_stop", self.max_start_stop, "an integer >= 0",
+                              where)
+        if len(self.grid) != 2 or any(int(g) < 1 for g in self.grid):
+            raise field_error(SpecError, "grid", self.grid, "two integers >= 1", where)
+        if self.n_random_edges < 0:
+            raise field_error(SpecError, "n_random_edges", self.n_random_edges, ">= 0", where)
+        if self.priority not in PRIORITIES:
+            raise field_error(SpecError, "priority", self.priority, ", ".join(PRIORITIES), where)

@@ -1,0 +1,39 @@
+"""`rfp-twin plan` on the MIRADAS probe-arm preset: kinds refused in one line, run folder."""
+from __future__ import annotations
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from rfp_twin.models.errors import KindError
+from rfp_twin.twin.cli import app
+from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
+
+
+@pytest.mark.parametrize("algorithm", ["greedy", "markov", "apf", "capf"])
+def test_gcmc_and_fields_refuse_the_probe_kind(tmp_path, algorithm):
+    out = tmp_path / "run"
+    r = CliRunner().invoke(app, ["plan", "--preset", "miradas-probe", "--layout", "miradas-12",
+                                 "--algorithm", algorithm, "--out", str(out)])
+    assert r.exit_code == 2, r.output
+    lines = [ln for ln in r.output.splitlines() if ln.strip()]
+    assert lines == [f"error: planner '{algorithm}' does not support robot kind "
+                     "'miradas-probe'; allowed: alpha-beta"]
+    assert not out.exists()
+    with pytest.raises(KindError, match=f"planner '{algorithm}'"):
+        Reconfiguration.from_names("miradas-probe", options=PlanOptions(algorithm=algorithm))
+
+
+def test_roadmap_plans_the_typical_scenario(tmp_path):
+    out = tmp_path / "run"
+    r = CliRunner().invoke(app, ["plan", "--preset", "miradas-probe", "--layout", "miradas-12",
+                                 "--algorithm", "roadmap", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "Table 1 form" in r.output and "2D check clear" in r.output
+    assert sorted(p.name for p in out.iterdir()) == ["plan.json", "summary.json", "tables.txt"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["success"] and summary["check2d"]["ok"] and summary["makespan_steps"] <= 19
+    plan = json.loads((out / "plan.json").read_text())
+    assert sorted(plan, key=int) == [str(i) for i in range(12)]
+    assert plan["0"]["theta1"][0] == [180.0, 0.0]             # park, at t = 0

@@ -1,0 +1,10 @@
+"""Independent 2D check of probe-arm plans (MIRADAS, Sabater et al. 2018).
+
+:func:`check_probe_plan` samples a plan densely and checks contacts between the arms'
+capsules, the ZoA and joint ranges, joint speeds and start-stop cycles, with its own
+kinematics and the validation package's own segment distance; it imports nothing of
+``planners``. Units: mm, deg, s.
+"""
+from rfp_twin.validation.probe.check import ProbeCheckReport, check_probe_plan, start_stop_cycles
+
+__all__ = ["ProbeCheckReport", "check_probe_plan", "start_stop_cycles"]
