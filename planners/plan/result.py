@@ -11,6 +11,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numba import njit
 
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
+
 #: Per-robot outcome of planning.
 REACHED = "reached"        # kept its target and the plan reaches it
 REPLACED = "replaced"      # its target was replaced to resolve a deadlock
@@ -151,3 +153,7 @@ def _build_paths(n, ev_robot, ev_step, ev_angles, start, end, n_steps):
         out_steps[out_ptr[i]:out_ptr[i] + m] = steps[ptr[i]:ptr[i] + m]
         out_angles[out_ptr[i]:out_ptr[i] + m] = angles[ptr[i]:ptr[i] + m]
     return out_ptr, out_steps, out_angles
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, _build_paths)

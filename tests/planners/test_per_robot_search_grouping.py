@@ -128,7 +128,7 @@ def test_interaction_walk_bounds_the_speed_of_a_long_arm():
     assert wrong[0] >= margin
 
 
-# -- resolve_search: the world's black boxes and trim_tails -----------------------------------
+# -- the deadlock search: the world's black boxes and trim_tails -----------------------------------
 
 
 def _world(geom: ArrayGeometry, b_movable: bool) -> AlphaBetaWorld:

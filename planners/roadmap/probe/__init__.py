@@ -7,12 +7,12 @@ parameters; :class:`ProbePlan` the result in the form of Tables 1-2;
 :func:`random_target_set` and :func:`typical_scenario` draw target sets. Units: deg,
 mm, s.
 """
-from rfp_twin.planners.probe.prioritized import (SUPPORTED_KINDS, plan_probe_arms,
+from rfp_twin.planners.roadmap.probe.prioritized import (SUPPORTED_KINDS, plan_probe_arms,
                                                  priority_order, travel_times)
-from rfp_twin.planners.probe.report import ArmRow, ProbePlan
-from rfp_twin.planners.probe.settings import PRIORITIES, ProbePlanSettings
-from rfp_twin.planners.probe.targets import random_target_set, typical_scenario
-from rfp_twin.planners.probe.world import ObstacleTime, pose_gaps
+from rfp_twin.planners.roadmap.probe.report import ArmRow, ProbePlan
+from rfp_twin.planners.roadmap.probe.settings import PRIORITIES, ProbePlanSettings
+from rfp_twin.planners.roadmap.probe.targets import random_target_set, typical_scenario
+from rfp_twin.planners.roadmap.probe.world import ObstacleTime, pose_gaps
 
 __all__ = ["PRIORITIES", "SUPPORTED_KINDS", "ArmRow", "ObstacleTime", "ProbePlan",
            "ProbePlanSettings", "plan_probe_arms", "pose_gaps", "priority_order",

@@ -5,7 +5,7 @@ route first, Eq. 5) and planned one at a time; each arm searches its roadmap
 (:func:`rfp_twin.planners.roadmap.build_roadmap`: an 8 x 6 grid with random extra edges)
 in state-time with the depth-first search of :func:`rfp_twin.planners.roadmap.plan_arm`,
 against the trajectories of the arms planned before it (the obstacle-time set,
-:class:`~rfp_twin.planners.probe.world.ObstacleTime`). An arm that arrives before the arms
+:class:`~rfp_twin.planners.roadmap.probe.world.ObstacleTime`). An arm that arrives before the arms
 above it stays clear at its goal until the last of them has arrived (goal conflicts,
 Sect. 6.4.2). Unplanned arms are not obstacles (Algorithm 1): each pair is checked when
 its lower arm is planned.
@@ -24,9 +24,9 @@ import numpy as np
 from rfp_twin.models.errors import TargetError
 from rfp_twin.models.kinds import MIRADAS_PROBE, require_kind
 from rfp_twin.models.kinds.probe_kinematics import edges_forbidden
-from rfp_twin.planners.probe.report import ArmRow, ProbePlan
-from rfp_twin.planners.probe.settings import ProbePlanSettings
-from rfp_twin.planners.probe.world import ObstacleTime, pose_gaps
+from rfp_twin.planners.roadmap.probe.report import ArmRow, ProbePlan
+from rfp_twin.planners.roadmap.probe.settings import ProbePlanSettings
+from rfp_twin.planners.roadmap.probe.world import ObstacleTime, pose_gaps
 from rfp_twin.planners.roadmap import Arm, RoadmapSettings, build_roadmap, edge_time, plan_arm
 
 #: Robot kinds this planner supports.

@@ -49,7 +49,7 @@ class ArmRow:
 
 @dataclass
 class ProbePlan:
-    """Outcome of :func:`rfp_twin.planners.probe.plan_probe_arms`.
+    """Outcome of :func:`rfp_twin.planners.roadmap.probe.plan_probe_arms`.
 
     Attributes
     ----------

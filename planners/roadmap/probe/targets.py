@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from rfp_twin.models.errors import TargetError
-from rfp_twin.planners.probe.world import pose_gaps
+from rfp_twin.planners.roadmap.probe.world import pose_gaps
 
 #: Tips drawn per arm before a target set is started again.
 TRIES_PER_ARM = 200

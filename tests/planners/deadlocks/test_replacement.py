@@ -1,6 +1,6 @@
 """Target replacement (planners/deadlocks/replacement.py): one robot of a group gets a new target,
 clear of its neighbours; the in-place search after it is tested with the solver's
-fallbacks (test_resolve_search_resolve.py)."""
+fallbacks (deadlocks/search/test_resolve.py)."""
 from __future__ import annotations
 
 import numpy as np

@@ -12,7 +12,7 @@ import pytest
 from rfp_twin.models.errors import KindError, TargetError
 from rfp_twin.models.kinds import AlphaBetaKind, load_kind
 from rfp_twin.models.robot import load_spec
-from rfp_twin.planners.probe import (ProbePlanSettings, plan_probe_arms, random_target_set,
+from rfp_twin.planners.roadmap.probe import (ProbePlanSettings, plan_probe_arms, random_target_set,
                                      travel_times, typical_scenario)
 from rfp_twin.validation.probe import check_probe_plan
 

@@ -19,7 +19,7 @@ STEP = 0.1
 LIMITS = np.array([0.0, 360.0, 0.0, 180.0])
 
 
-def _toward(cur, dest, k, lo, hi):
+def step_toward(cur, dest, k, lo, hi):
     nxt = min(max(cur + k * STEP, lo), hi)
     if cur > dest and nxt <= dest:
         nxt = dest
@@ -32,8 +32,8 @@ def _candidates(start, dest):
     out = []
     for ka in (-1, 0, 1):
         for kb in (-1, 0, 1):
-            out.append((_toward(start[0], dest[0], ka, LIMITS[0], LIMITS[1]),
-                        _toward(start[1], dest[1], kb, LIMITS[2], LIMITS[3])))
+            out.append((step_toward(start[0], dest[0], ka, LIMITS[0], LIMITS[1]),
+                        step_toward(start[1], dest[1], kb, LIMITS[2], LIMITS[3])))
     return np.array(out)
 
 

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from rfp_twin.planners.stepwise.moves import _rot, _toward, max_displacement
+from rfp_twin.planners.stepwise.moves import rotate_steps, step_toward, max_displacement
 
 L_ALPHA, L_BETA = 7.4, 15.0
 
@@ -44,14 +44,14 @@ def test_rotation_by_whole_steps_matches_the_trig_functions():
     c2d, s2d = math.cos(math.radians(2 * d)), math.sin(math.radians(2 * d))
     x = math.radians(37.0)
     for k in (-2, -1, 0, 1, 2):
-        c, s = _rot(math.cos(x), math.sin(x), k, cd, sd, c2d, s2d)
+        c, s = rotate_steps(math.cos(x), math.sin(x), k, cd, sd, c2d, s2d)
         assert c == pytest.approx(math.cos(x + math.radians(k * d)), abs=1e-15)
         assert s == pytest.approx(math.sin(x + math.radians(k * d)), abs=1e-15)
 
 
 def test_a_move_is_clipped_to_the_limits_and_stops_at_the_destination():
-    assert _toward(10.0, 20.0, 1, 0.5, 0.0, 360.0) == 10.5
-    assert _toward(10.0, 10.2, 1, 0.5, 0.0, 360.0) == 10.2       # no overshoot
-    assert _toward(10.0, 10.2, -1, 0.5, 0.0, 360.0) == 9.5       # away from it: a full step
-    assert _toward(179.8, 90.0, 1, 0.5, 0.0, 180.0) == 180.0     # joint limit
-    assert _toward(10.0, 20.0, 0, 0.5, 0.0, 360.0) == 10.0
+    assert step_toward(10.0, 20.0, 1, 0.5, 0.0, 360.0) == 10.5
+    assert step_toward(10.0, 10.2, 1, 0.5, 0.0, 360.0) == 10.2       # no overshoot
+    assert step_toward(10.0, 10.2, -1, 0.5, 0.0, 360.0) == 9.5       # away from it: a full step
+    assert step_toward(179.8, 90.0, 1, 0.5, 0.0, 180.0) == 180.0     # joint limit
+    assert step_toward(10.0, 20.0, 0, 0.5, 0.0, 360.0) == 10.0
