@@ -7,7 +7,9 @@
 - DENSITY and UNIT: science targets per ``deg2`` (needs a telescope's plate scale; the
   default unit when the array has one) or per robot ``patrol`` area (the default
   otherwise);
-- keys: ``sky=D`` and ``standard=D`` (calibration targets, same unit), ``levels=K``
+- keys: ``sky=D`` and ``standard=D`` (calibration targets, same unit, priority
+  :data:`CALIBRATION_PRIORITY`: taken for the quotas and where no science target
+  competes), ``levels=K``
   (science priorities drawn from 1..K), ``fiber=boss|apogee|any`` (science targets;
   calibration targets accept any fiber), ``children=C`` and ``sigma=MM`` (clusters).
 
@@ -26,6 +28,9 @@ from rfp_twin.models.catalogue import (TELESCOPES, Catalogue, Disc, Telescope, d
 from rfp_twin.models.errors import CatalogueError
 
 MOCK_PREFIX = "mock:"
+#: Priority of mock sky and standard targets: far below a science target's (>= 1), above
+#: parking (0).
+CALIBRATION_PRIORITY = 0.001
 MOCK_KEYS = ("sky", "standard", "levels", "fiber", "children", "sigma")
 TELESCOPE_CHOICES = ("auto", "apo", "lco", "none")
 
@@ -128,7 +133,8 @@ def mock_from_text(text: str, geom, telescope: Telescope | None,
         if kind in keys:
             d = number(kind, 0.0)
             parts.append(mock_catalogue(rng, disc, per_mm2(d), process="uniform", kind=kind,
-                                        fiber="any", first_id=sum(p.n_targets for p in parts),
+                                        fiber="any", priority=CALIBRATION_PRIORITY,
+                                        first_id=sum(p.n_targets for p in parts),
                                         source=text))
     return Catalogue.concat(parts, source=text) if len(parts) > 1 else parts[0]
 

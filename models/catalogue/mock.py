@@ -100,7 +100,8 @@ def thomas_xy(rng: np.random.Generator, disc: Disc, density: float, children: fl
 
 def mock_catalogue(rng: np.random.Generator, disc: Disc, density: float, *,
                    process: str = "uniform", kind: str = "science", fiber: str = "boss",
-                   priority_levels: int = 1, children: float = 10.0, sigma_mm: float = 20.0,
+                   priority_levels: int = 1, priority: float | None = None,
+                   children: float = 10.0, sigma_mm: float = 20.0,
                    first_id: int = 0, source: str = "mock") -> Catalogue:
     """A mock catalogue of one kind in ``disc`` at ``density`` targets per mm^2.
 
@@ -109,6 +110,7 @@ def mock_catalogue(rng: np.random.Generator, disc: Disc, density: float, *,
     process : ``uniform`` (Poisson) or ``clustered`` (Thomas; ``children``, ``sigma_mm``)
     kind, fiber : the kind (:data:`KINDS`) and fiber (:data:`TARGET_FIBERS`) of every target
     priority_levels : priorities drawn uniformly from 1..levels (1: every target weighs 1)
+    priority : one priority for every target instead (a finite number >= 0)
     first_id : ids are ``first_id, first_id + 1, ...``
     """
     if process not in PROCESSES:
@@ -127,8 +129,11 @@ def mock_catalogue(rng: np.random.Generator, disc: Disc, density: float, *,
     xy = (uniform_xy(rng, disc, density) if process == "uniform"
           else thomas_xy(rng, disc, density, children, sigma_mm))
     t = xy.shape[0]
-    prio = (np.ones(t) if priority_levels == 1
-            else rng.integers(1, priority_levels + 1, t).astype(np.float64))
+    if priority is not None:
+        prio = np.full(t, float(priority))
+    else:
+        prio = (np.ones(t) if priority_levels == 1
+                else rng.integers(1, priority_levels + 1, t).astype(np.float64))
     return Catalogue(first_id + np.arange(t, dtype=np.int64), xy, prio,
                      np.full(t, KINDS.index(kind), dtype=np.int8),
                      np.full(t, TARGET_FIBERS.index(fiber), dtype=np.int8), source=source)

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from rfp_twin.models.errors import LayoutError
+from rfp_twin.models.layout.checks import check_size
 from rfp_twin.models.layout.core import Layout
 
 
@@ -72,6 +73,7 @@ def layout_by_name(name: str, pitch_mm: float, fiducial_ids: tuple[int, ...] = (
             n = int(name[4:])
         except ValueError:
             raise LayoutError(f"layout {name!r}: 'hex:N' needs an integer N") from None
+        check_size(n, f"layout {name!r}")
         grid = Layout.hex_grid_positions(n, pitch_mm)
         if fiducial_ids:
             grid.robot_indices(list(fiducial_ids))  # names an unknown id

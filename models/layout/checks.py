@@ -15,6 +15,16 @@ from rfp_twin.models.errors import LayoutError
 
 #: Allowed values of the ``kind`` column.
 KINDS = ("robot", "fiducial", "gfa")
+#: Most positions a generated layout may have: planning takes ~0.9 GB per 30,000 robots
+#: (benchmarks/RESULTS.md, raft:476), so 500,000 robots fill ~15 GB.
+MAX_POSITIONS = 500_000
+
+
+def check_size(n: float, where: str) -> None:
+    """LayoutError when a generated layout would hold more than :data:`MAX_POSITIONS`."""
+    if n > MAX_POSITIONS:
+        raise LayoutError(f"{where}: {n:,.0f} positions; allowed: at most {MAX_POSITIONS:,} "
+                          "(memory: planning takes ~0.9 GB per 30,000 robots)")
 
 
 def readonly(a: np.ndarray) -> np.ndarray:

@@ -49,7 +49,7 @@ import math
 import numpy as np
 
 from rfp_twin.models.errors import LayoutError
-from rfp_twin.models.layout.checks import check_positive
+from rfp_twin.models.layout.checks import check_positive, check_size
 from rfp_twin.models.layout.core import Layout
 
 #: Spec-S5 (LBNL) raft defaults: robots per raft, pitch, triangle side, gap (mm), rafts.
@@ -245,9 +245,15 @@ def raft_layout(robots_per_raft: int = SPEC_S5_ROBOTS_PER_RAFT,
                           f"side_mm >= {need:.3f}")
     if n_rafts is not None:
         n_rafts = _count("n_rafts", n_rafts)
+        check_size(n_rafts * n_robots, f"{_WHERE}: {n_rafts} rafts of {n_robots} robots")
     radius = None if radius_mm is None else check_positive("radius_mm", radius_mm, _WHERE)
     if n_rafts is None and radius is None:
         n_rafts = SPEC_S5_RAFTS
+    if radius is not None:
+        # rafts of this side (plus gaps) cover the disc at most once: an upper bound
+        pitch_area = _SQRT3 / 4.0 * (side + _SQRT3 * gap) ** 2
+        check_size(math.pi * radius ** 2 / pitch_area * n_robots,
+                   f"{_WHERE}: rafts inside {radius:g} mm")
     cents, up = _select(n_rafts, radius, side, side + _SQRT3 * gap)
     template = raft_template(n_robots, pitch)
     sign = np.where(up, 1.0, -1.0)[:, None, None]

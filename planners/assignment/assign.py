@@ -30,9 +30,10 @@ import numpy as np
 
 from rfp_twin.models.catalogue import KINDS, SKY, STANDARD, Catalogue
 from rfp_twin.models.errors import AssignmentError
-from rfp_twin.planners.assignment.candidates import ARMS, Candidates, build_candidates
+from rfp_twin.planners.assignment.candidates import ARMS, Candidates, build_candidates, subset
 from rfp_twin.planners.assignment.conflicts import (conflict_cliques, conflict_degrees,
                                                     conflict_pairs, neighbour_pairs)
+from rfp_twin.planners.assignment.dominance import undominated
 from rfp_twin.planners.assignment.greedy import greedy_assign
 from rfp_twin.planners.assignment.problem import Problem
 from rfp_twin.planners.assignment.solvers import SOLVERS, solve
@@ -250,7 +251,7 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
     if not quota_rows and stats["greedy_objective"] >= easy:
         # every robot has its best weight (or every reachable target is taken): optimal
         stats["seconds"]["total"] = time.perf_counter() - t0
-        return _finish(geom, catalogue, cands, greedy_chosen, easy, "optimal", method, stats)
+        return _finish(geom, catalogue, cands, greedy_chosen, easy, "optimal", "greedy", stats)
     if method == "greedy":
         if quota_rows:
             _check_greedy_quotas(cands, greedy_chosen, quota_rows)
@@ -258,13 +259,23 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
         return _finish(geom, catalogue, cands, greedy_chosen, easy, "heuristic", "greedy", stats)
 
     a, b = conflict_pairs(cands, pairs, geom.buffer, s.margin_mm)
-    cp, ci = conflict_cliques(a, b, cands.robot)
-    problem = Problem.build(cands, cp, ci, [(m, q) for m, q, _ in quota_rows])
+    # presolve: poses another pose of the same robot dominates never need to be taken
+    group = np.full(cands.n, -1, dtype=np.int64)
+    for q, (members, _, _) in enumerate(quota_rows):
+        group[members] = q
+    red, sel = subset(cands, undominated(cands, a, b, group))
+    new_index = np.full(cands.n, -1, dtype=np.int64)
+    new_index[sel] = np.arange(sel.size)
+    both = (new_index[a] >= 0) & (new_index[b] >= 0)
+    cp, ci = conflict_cliques(new_index[a[both]], new_index[b[both]], red.robot)
+    red_quotas = [(new_index[m][new_index[m] >= 0], q, what) for m, q, what in quota_rows]
+    problem = Problem.build(red, cp, ci, [(m, q) for m, q, _ in red_quotas])
     subs = problem.split()
     t_model = time.perf_counter()
     chosen = greedy_chosen.copy()
     hint_x = np.zeros(cands.n, dtype=bool)
     hint_x[greedy_chosen] = True
+    hint_red = hint_x[sel]
     robot_best = np.maximum.reduceat(cands.weight, cands.ptr[:-1])
     bound = 0.0
     all_optimal = True
@@ -273,7 +284,7 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
     for sub in subs:
         if sub.n_robots == 1 and not sub.has_quota:
             best = sub.cands[int(np.argmax(sub.weight))]
-            chosen[problem.robot[best]] = best
+            chosen[problem.robot[best]] = sel[best]
             bound += float(sub.weight.max())
             continue
         robots = np.unique(problem.robot[sub.cands])
@@ -293,18 +304,19 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
             all_optimal = False
             bound += easy
             continue
-        sol = solve(sub, method, time_limit_s=left, workers=s.workers, hint=hint_x[sub.cands])
+        sol = solve(sub, method, time_limit_s=left, workers=s.workers, hint=hint_red[sub.cands])
         if sol.status == "infeasible":
-            _explain_quota(geom, cands, problem, quota_rows, method, s)
+            _explain_quota(geom, red, problem, red_quotas, method, s)
         if sol.status not in ("optimal", "feasible"):
             # no solution in time: keep the greedy poses of this component
             all_optimal = False
             bound += min(sol.bound, easy) if np.isfinite(sol.bound) else easy
             continue
         taken = sub.cands[sol.x]
-        chosen[problem.robot[taken]] = taken
+        chosen[problem.robot[taken]] = sel[taken]
         bound += sol.bound
         all_optimal &= sol.status == "optimal"
+    stats["n_candidates_presolved"] = int(sel.size - geom.n_robots)
     t_solve = time.perf_counter()
     stats.update({"n_conflict_pairs": int(a.size), "n_rows": problem.rows.n_rows,
                   "n_components": len(subs), "n_components_solved": n_solved,

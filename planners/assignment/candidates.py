@@ -224,3 +224,15 @@ def build_candidates(geom, catalogue: Catalogue, *, margin_mm: float = 0.0,
     return Candidates(robot=robot, target=target, angles=angles[order], arm=arm[order],
                       slot=slot[order], weight=weight, seg=np.ascontiguousarray(seg[order]),
                       ptr=ptr)
+
+
+def subset(cands: Candidates, keep: np.ndarray) -> tuple[Candidates, np.ndarray]:
+    """The candidates where ``keep`` (c,) bool, still grouped by robot, and their indices
+    in ``cands`` ((k,) int64). Every robot must keep at least one candidate."""
+    sel = np.flatnonzero(keep)
+    robot = cands.robot[sel]
+    n = cands.ptr.size - 1
+    ptr = np.searchsorted(robot, np.arange(n + 1)).astype(np.int64)
+    return Candidates(robot=robot, target=cands.target[sel], angles=cands.angles[sel],
+                      arm=cands.arm[sel], slot=cands.slot[sel], weight=cands.weight[sel],
+                      seg=cands.seg[sel], ptr=ptr), sel

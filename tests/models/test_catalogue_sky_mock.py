@@ -77,6 +77,8 @@ def test_uniform_mock_is_seeded_and_has_its_density():
     assert np.all(np.hypot(*a.xy.T) <= disc.radius_mm)
     assert np.all(a.kind == SKY) and set(a.priority.tolist()) == {1.0, 2.0, 3.0}
     assert a.ids.tolist() == list(range(a.n_targets))
+    c = mock_catalogue(np.random.default_rng(3), disc, dens, kind="sky", priority=0.001)
+    assert np.all(c.priority == 0.001) and np.array_equal(c.xy, a.xy)
 
 
 def test_clustered_mock_has_the_density_and_is_clumpier_than_uniform():

@@ -51,3 +51,9 @@ def test_a_csv_path_is_read_with_a_pitch_dependent_minimum_separation(tmp_path):
         layout_by_name(str(path), 22.4)                            # min(1, 22.4 / 4) = 1 mm
     lay = layout_by_name(str(path), 1.6)                           # 0.4 mm
     assert (lay.name, lay.robot_ids.tolist()) == ("close", [1, 2])
+
+
+@pytest.mark.parametrize("name", ["raft:100000000", "raft:R=100000", "hex:100000003"])
+def test_an_array_too_large_for_memory_is_one_line_naming_size_and_limit(name):
+    with pytest.raises(LayoutError, match=r"positions; allowed: at most 500,000 \(memory"):
+        layout_by_name(name, 6.2)

@@ -105,7 +105,7 @@ def _spec_with(tmp_path, **changes):
     ({"ds1_mm": 400.0, "ds2_mm": 450.0, "d3tip_mm": 500.0}, "'ds1_mm, ds2_mm'"),  # no pose
     ({"d12_mm": 150.0}, "'d12_mm'"),                        # loop cannot close as Eqs. 1-3
     ({"d3tip_mm": 250.0}, "'d3tip_mm'"),                    # tip inside the tube's end stop
-    ({"ds1_mm": 230.0}, "'park_deg'"),                      # park pose in the ZoA
+    ({"ds1_mm": 270.0}, "'park_deg'"),                      # park pose in the ZoA
     ({"theta1_limits_deg": "[0.0, 200.0]", "park_deg": "[190.0, 0.0]", "ds1_mm": 10.0},
      None),                                                  # allowed: a wider range
 ])
@@ -136,8 +136,8 @@ def test_bad_targets_name_the_arm_and_the_range(kind):
     with pytest.raises(TargetError, match=r"^arm 3: target .* has no pose; allowed: .*ZoA"):
         kind.poses_for_tips(far)
     q = park.copy()
-    q[5] = [0.0, 0.0]                                          # d34 = 20 mm: in the ZoA
-    with pytest.raises(TargetError, match=r"^arm 5: target .* is in the ZoA: d34 = 20.00 mm; "
+    q[5] = [0.0, 0.0]                                          # d34 = 5 mm: in the ZoA
+    with pytest.raises(TargetError, match=r"^arm 5: target .* is in the ZoA: d34 = 5.00 mm; "
                                           r"allowed: \(100, 300\) mm"):
         kind.check_poses(q)
     q[5] = [200.0, 0.0]

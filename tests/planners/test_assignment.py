@@ -200,3 +200,39 @@ def test_large_components_are_improved_window_by_window(monkeypatch):
     assert_valid(geom, cat, win)
     assert win.stats["greedy_objective"] <= win.objective <= exact.objective + 1e-9
     assert win.bound >= exact.objective - 1e-9
+
+
+def test_dominated_poses_are_dropped_without_losing_the_optimum():
+    """Presolve by dominance: the same optimum as the full program (CP-SAT on every pose,
+    HiGHS after the presolve), and a pose is only dropped for a pose of its own robot."""
+    import importlib
+
+    from rfp_twin.planners.assignment.conflicts import conflict_pairs, neighbour_pairs
+    from rfp_twin.planners.assignment.dominance import exclusion_csr, undominated
+
+    assign_module = importlib.import_module("rfp_twin.planners.assignment.assign")
+    geom = hex_geom(37)
+    cat = covering_catalogue(geom, 3.0, seed=8, levels=3)
+    margin = array_max_displacement(geom, 0.1)
+    cands = build_candidates(geom, cat, margin_mm=margin)
+    pairs = neighbour_pairs(geom, margin)
+    a, b = conflict_pairs(cands, pairs, geom.buffer, margin)
+    keep = undominated(cands, a, b)
+    assert 0 < np.count_nonzero(~keep) < cands.n
+    ptr, idx = exclusion_csr(cands, a, b)
+    for c in np.flatnonzero(~keep)[:50]:
+        r = cands.robot[c]
+        mates = [d for d in range(cands.ptr[r], cands.ptr[r + 1]) if d != c
+                 and cands.weight[d] >= cands.weight[c]
+                 and set(idx[ptr[d]:ptr[d + 1]]) <= set(idx[ptr[c]:ptr[c + 1]])]
+        assert mates
+    with_presolve = assign(geom, cat, AssignSettings(solver="highs", margin_mm=margin))
+    original = assign_module.undominated
+    try:
+        assign_module.undominated = lambda cands, a, b, group=None: np.ones(cands.n, dtype=bool)
+        without = assign(geom, cat, AssignSettings(solver="highs", margin_mm=margin))
+    finally:
+        assign_module.undominated = original
+    assert with_presolve.status == without.status == "optimal"
+    assert with_presolve.objective == pytest.approx(without.objective)
+    assert_valid(geom, cat, with_presolve)

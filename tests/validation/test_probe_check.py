@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rfp_twin.models.errors import TrajectoryError
-from rfp_twin.models.kinds import load_probe_spec
+from rfp_twin.models.kinds import load_kind, load_probe_spec
 from rfp_twin.validation.probe import check_probe_plan, start_stop_cycles
 
 
@@ -26,9 +26,10 @@ def test_parked_bench_is_clear(spec):
 
 def test_two_arms_driven_into_the_centre_touch(spec):
     plan = _parked(spec)
-    # arms 0 and 6 face each other; this pose (tip on the field centre, from the
-    # linkage's inverse kinematics, its own: 54.56, 80.84 deg) puts both heads there
-    goal = np.array([54.56442079, 80.84310531])
+    # arms 0 and 6 face each other; the pose putting the tip on the field centre (the
+    # model's inverse kinematics) puts both heads there
+    kind = load_kind("miradas-probe")
+    goal = kind.inverse(kind.to_arm(0, np.zeros((1, 2))))[0]
     for i in (0, 6):
         plan[i] = (np.array([0.0, 100.0]), np.array([spec.park_deg, goal]))
     rep = check_probe_plan(spec, plan, dt_s=0.5)

@@ -83,6 +83,11 @@ def plan(
                              "| left."),
     assign_rounds: int = typer.Option(5, help="--catalogue: assign -> plan rounds at most, "
                                       ">= 1."),
+    sky_quota: int = typer.Option(0, help="--catalogue: minimum sky fibers per region."),
+    standard_quota: int = typer.Option(0, help="--catalogue: minimum standard fibers per "
+                                       "region."),
+    sectors: int = typer.Option(1, help="--catalogue: quota regions, equal angular sectors "
+                                "about the array's centre."),
     direction: str = typer.Option("reverse", help="reverse (targets->fold, reversed) | forward"),
     resolve: str = typer.Option("search", help="Deadlocks left by greedy/markov/roadmap: search "
                                 "(re-run with greedy-first Markov robots around the groups, then "
@@ -154,11 +159,13 @@ def plan(
         raise TargetError(f"--assign-rounds {assign_rounds}; allowed: >= 1")
     cat = None
     if catalogue is not None:
-        from rfp_twin.planners.assignment import AssignSettings
+        from rfp_twin.planners.assignment import AssignSettings, Quotas
         from rfp_twin.twin.catalogue_source import load_catalogue, parse_centre, telescope_for
         from rfp_twin.twin.cli.assign import parse_arms
 
-        assign_settings = AssignSettings(solver=assign_solver, arms=parse_arms(arms))
+        assign_settings = AssignSettings(solver=assign_solver, arms=parse_arms(arms),
+                                         quotas=Quotas(sky=sky_quota, standard=standard_quota,
+                                                       sectors=sectors))
         cat = load_catalogue(catalogue, rc.geom, telescope=telescope_for(telescope, layout,
                                                                           spec.name),
                              field_centre=parse_centre(field_centre), seed=seed)

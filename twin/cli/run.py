@@ -96,6 +96,19 @@ def model_export(
     from rfp_twin.models.robot import load_spec
     from rfp_twin.models.layout import layout_by_name
 
+    from rfp_twin.models.robot import preset_kind
+
+    if preset_kind(preset) != "alpha-beta":                  # probe arms (MIRADAS)
+        from rfp_twin.models.kinds import load_kind
+        from rfp_twin.models.mjcf.probe_bench import export_probe_bench
+
+        kind = load_kind(preset)
+        if layout is not None:
+            n = len(layout_by_name(layout, 1.0).robot_ids)
+            kind = type(kind)(kind.spec.with_overrides(n_arms=n))
+        path = export_probe_bench(kind, out)
+        console.print(f"wrote {path} ({kind.n_arms} probe arms)")
+        return
     spec = load_spec(preset)
     lay = layout_by_name(chosen_layout(layout, calibration, spec), spec.pitch_mm,
                          parse_ids(fiducials, "--fiducials"))

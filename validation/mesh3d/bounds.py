@@ -52,6 +52,14 @@ from numba.extending import overload
 from rfp_twin.models.geometry import LINKS
 from rfp_twin.validation.numerics import clamp01, segment_distance
 
+#: Piece pairs whose capsule bounds are within this of the smallest of their two links
+#: also get the hull bound in :func:`store_pose_bounds_at`, mm.
+HULL_WITHIN_MM = 1.0
+
+#: The 3D capsule bound (cheap) is taken where the prism bound is below ``tight_below`` plus
+#: this, mm; the hull bound (a 2D GJK, ~20x dearer) only below ``tight_below``.
+CAPSULE3_WITHIN_MM = 1.0
+
 #: Link kind codes used inside the kernels (index into :data:`rfp_twin.models.geometry.LINKS`).
 BODY, ALPHA, BETA, FIDUCIAL = (LINKS.index(n) for n in ("body", "alpha", "beta", "fiducial"))
 
@@ -302,10 +310,16 @@ def piece_bound_at(u, v, tha, xa, ya, plane_a, thb, xb, yb, plane_b, s_xy, s_z, 
     true distance (the interval bounds of :mod:`rfp_twin.validation.mesh3d.broadphase`
     need no more: they rest on the true distance being Lipschitz).
     """
-    ca = math.cos(tha)
-    sa = math.sin(tha)
-    cb = math.cos(thb)
-    sb = math.sin(thb)
+    return piece_bound_cs(u, v, math.cos(tha), math.sin(tha), xa, ya, plane_a, math.cos(thb),
+                          math.sin(thb), xb, yb, plane_b, s_xy, s_z, cap, zlim, pptr, pxy,
+                          tight_below)
+
+
+@njit(cache=True)
+def piece_bound_cs(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb, plane_b, s_xy, s_z, cap, zlim,
+                   pptr, pxy, tight_below):
+    """:func:`piece_bound_at` with the link rotations given as cosine and sine (computed once
+    per link, not once per piece pair)."""
     a0x = xa + ca * cap[u, 0] - sa * cap[u, 1]
     a0y = ya + sa * cap[u, 0] + ca * cap[u, 1]
     a1x = xa + ca * cap[u, 2] - sa * cap[u, 3]
@@ -324,7 +338,7 @@ def piece_bound_at(u, v, tha, xa, ya, plane_a, thb, xb, yb, plane_b, s_xy, s_z, 
         out = math.sqrt(x * x + dz * dz)
     else:
         out = dxy
-    if out < tight_below:
+    if out < tight_below + CAPSULE3_WITHIN_MM:
         c3 = capsule3_bound(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb, plane_b, s_xy, s_z,
                             cap)
         if c3 > out:
@@ -350,10 +364,11 @@ def link_bound_at(ka, kb, tha, xa, ya, plane_a, thb, xb, yb, plane_b, s_xy, s_z,
                   pptr, pxy, tight_below):
     """:func:`link_bound` of links with height planes and slacks (mm)."""
     best = np.inf
+    ca, sa, cb, sb = math.cos(tha), math.sin(tha), math.cos(thb), math.sin(thb)
     for u in range(kptr[ka], kptr[ka + 1]):
         for v in range(kptr[kb], kptr[kb + 1]):
-            d = piece_bound_at(u, v, tha, xa, ya, plane_a, thb, xb, yb, plane_b, s_xy, s_z, cap,
-                               zlim, pptr, pxy, tight_below)
+            d = piece_bound_cs(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb, plane_b, s_xy, s_z,
+                               cap, zlim, pptr, pxy, tight_below)
             if d < best:
                 best = d
     return best
@@ -371,11 +386,43 @@ def store_pose_bounds(poses, bounds, k, ka, kb, tha, xa, ya, thb, xb, yb,
 @njit(cache=True)
 def store_pose_bounds_at(poses, bounds, k, ka, kb, tha, xa, ya, plane_a, thb, xb, yb, plane_b,
                          s_xy, s_z, kptr, cap, zlim, pptr, pxy):
-    """:func:`store_pose_bounds` of links with height planes and slacks (mm)."""
+    """:func:`store_pose_bounds` of links with height planes and slacks (mm).
+
+    The capsule prisms and 3D capsules of every piece pair first; the (costlier) hull
+    bound only for the piece pairs within :data:`HULL_WITHIN_MM` of the smallest of those,
+    the ones FCL may visit (a far piece pair keeps its capsule value: a lower bound still).
+    """
     poses[k] = (tha, xa, ya, thb, xb, yb)
+    ca, sa, cb, sb = math.cos(tha), math.sin(tha), math.cos(thb), math.sin(thb)
+    lowest = np.inf
     j = 0
     for u in range(kptr[ka], kptr[ka + 1]):
         for v in range(kptr[kb], kptr[kb + 1]):
-            bounds[k, j] = piece_bound_at(u, v, tha, xa, ya, plane_a, thb, xb, yb, plane_b, s_xy,
-                                          s_z, cap, zlim, pptr, pxy, np.inf)
+            f = max(piece_bound_cs(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb, plane_b, s_xy,
+                                   s_z, cap, zlim, pptr, pxy, -np.inf),
+                    capsule3_bound(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb, plane_b, s_xy,
+                                   s_z, cap))
+            bounds[k, j] = f
+            if f < lowest:
+                lowest = f
             j += 1
+    # tightening raises values (and so the smallest): repeat until every piece pair within
+    # HULL_WITHIN_MM of the smallest is tight, so the row's minimum is the tight link bound
+    nb = kptr[kb + 1] - kptr[kb]
+    done = np.zeros(j, dtype=np.bool_)
+    changed = True
+    while changed:
+        changed = False
+        for jj in range(j):
+            if not done[jj] and bounds[k, jj] < lowest + HULL_WITHIN_MM:
+                u = kptr[ka] + jj // nb
+                v = kptr[kb] + jj % nb
+                bounds[k, jj] = piece_bound_cs(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb,
+                                               plane_b, s_xy, s_z, cap, zlim, pptr, pxy, np.inf)
+                done[jj] = True
+                changed = True
+        if changed:
+            lowest = np.inf
+            for jj in range(j):
+                if bounds[k, jj] < lowest:
+                    lowest = bounds[k, jj]

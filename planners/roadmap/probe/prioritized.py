@@ -49,10 +49,13 @@ def travel_times(kind, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
 def priority_order(kind, start: np.ndarray, goal: np.ndarray, policy: str,
                    rng: np.random.Generator) -> list[int]:
     """Arm indices, highest priority first: longest estimated travel first (ties by
-    index) for ``"travel-time"``, a random permutation for ``"random"``."""
+    index) for ``"travel-time"``, the same after the arms that do not move for
+    ``"still-first"``, a random permutation for ``"random"``."""
     if policy == "random":
         return [int(i) for i in rng.permutation(len(start))]
     est = travel_times(kind, start, goal)
+    if policy == "still-first":
+        return sorted(range(len(start)), key=lambda i: (est[i] > 0, -round(float(est[i]), 9), i))
     return sorted(range(len(start)), key=lambda i: (-round(float(est[i]), 9), i))
 
 
@@ -81,7 +84,9 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
 
     Returns
     -------
-    ProbePlan: per-arm rows (Tables 1-2) and, when every arm got one, trajectories.
+    ProbePlan: per-arm rows (Tables 1-2) of the last pass and, when every arm got one,
+    trajectories. With ``settings.replans`` > 0 a failed pass is followed by another with
+    the arm that failed first in the order (Sect. 2.1), at most that many times.
     """
     require_kind(kind.name, SUPPORTED_KINDS, "the probe-arm prioritized planner")
     s = settings or ProbePlanSettings()
@@ -93,8 +98,25 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
     check_clear(kind, start, "start")
     check_clear(kind, goal, "target")
     clock = time.perf_counter()
-    rs = roadmap_settings(s)
     order = priority_order(kind, start, goal, s.priority, rng)
+    plan = _one_pass(kind, start, goal, s, order, rng)
+    passes, checks = 1, plan.checks
+    while not plan.success and passes <= s.replans:
+        # Sect. 2.1: plan again with another priority order; the arm that found no
+        # trajectory goes first
+        order = [plan.failed_arm] + [a for a in order if a != plan.failed_arm]
+        plan = _one_pass(kind, start, goal, s, order, rng)
+        passes += 1
+        checks += plan.checks
+    plan.passes, plan.all_checks, plan.seconds = passes, checks, time.perf_counter() - clock
+    return plan
+
+
+def _one_pass(kind, start: np.ndarray, goal: np.ndarray, s: ProbePlanSettings, order: list[int],
+              rng: np.random.Generator) -> ProbePlan:
+    """Algorithm 1 once, in priority ``order``."""
+    clock = time.perf_counter()
+    rs = roadmap_settings(s)
     est = travel_times(kind, start, goal)
     world = ObstacleTime(kind, s.dt_col_s, s.horizon_s + s.dt_s)
     vmax = kind.max_speed_deg_s()
@@ -130,7 +152,7 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
                      checks=counter["checks"], seconds=time.perf_counter() - arm_clock)
         if traj is None:
             rows.append(row)
-            return ProbePlan(kind, start, goal, s, order, rows, {}, False, i,
+            return ProbePlan(kind, start, goal, s, order, rows, trajectories, False, i,
                              time.perf_counter() - clock)
         n_mid = len(traj.path) - 2
         row.path = "-".join(["Start", *(next(letters) for _ in range(n_mid)), "end"])

@@ -58,9 +58,12 @@ class ProbePlan:
     settings : ProbePlanSettings
     order : list of arm indices, highest priority first
     rows : list of ArmRow, in planning order (up to the failing arm)
-    trajectories : {arm: ArmTrajectory} (times s, configs deg), every arm when success
+    trajectories : {arm: ArmTrajectory} (times s, configs deg), every arm when success,
+        the arms planned before the failing one otherwise
     success : bool; failed_arm : the arm with no trajectory, or None
-    seconds : float, planning time of the whole plan
+    seconds : float, planning time of the whole plan (every pass)
+    passes : int, prioritized passes run (1 + re-plans with another order)
+    all_checks : int, collision queries of every pass
     """
 
     kind: object
@@ -73,6 +76,8 @@ class ProbePlan:
     success: bool
     failed_arm: int | None
     seconds: float
+    passes: int = 1
+    all_checks: int = 0
 
     @property
     def checks(self) -> int:
@@ -107,7 +112,8 @@ class ProbePlan:
     def summary(self) -> dict:
         """Plain-data summary (JSON-ready)."""
         return {"success": self.success, "failed_arm": self.failed_arm,
-                "seconds": self.seconds, "checks": self.checks,
+                "seconds": self.seconds, "checks": self.checks, "passes": self.passes,
+                "all_checks": self.all_checks,
                 "makespan_steps": self.makespan_steps, "dt_s": self.settings.dt_s,
                 "max_start_stop": self.max_start_stop,
                 "rows": [asdict(r) for r in self.rows]}

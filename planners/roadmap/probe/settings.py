@@ -12,9 +12,11 @@ from dataclasses import dataclass
 
 from rfp_twin.models.errors import SpecError, field_error
 
-#: Priority policies: the paper's (longest estimated travel time first), or a random
-#: order drawn from the plan's generator.
-PRIORITIES = ("travel-time", "random")
+#: Priority policies: the paper's (longest estimated travel time first); the same with
+#: the arms that do not move first (they are then fixed obstacles the others avoid,
+#: instead of arms that must dodge them with one start-stop cycle); a random order
+#: drawn from the plan's generator.
+PRIORITIES = ("travel-time", "still-first", "random")
 
 
 @dataclass(frozen=True)
@@ -35,7 +37,10 @@ class ProbePlanSettings:
         discarded
     horizon_s : float, T_f: nodes at or after this time are not expanded, so every arm
         arrives by then (the paper's 120 s configuration-time goal)
-    priority : "travel-time" (Sect. 7) | "random"
+    replans : int, passes after a failed one, each with the arm that failed first in the
+        order (Sect. 2.1: "replanning with a different arm-priority scheme"); 0 = the one
+        pass of the paper's experiments (Sect. 8)
+    priority : "travel-time" (Sect. 7) | "still-first" | "random" (:data:`PRIORITIES`)
     """
 
     dt_s: float = 6.0
@@ -47,6 +52,7 @@ class ProbePlanSettings:
     max_path_time_s: float = 120.0
     horizon_s: float = 120.0
     priority: str = "travel-time"
+    replans: int = 0
 
     def __post_init__(self) -> None:
         where = "ProbePlanSettings"
@@ -64,5 +70,7 @@ class ProbePlanSettings:
             raise field_error(SpecError, "grid", self.grid, "two integers >= 1", where)
         if self.n_random_edges < 0:
             raise field_error(SpecError, "n_random_edges", self.n_random_edges, ">= 0", where)
+        if not isinstance(self.replans, int) or self.replans < 0:
+            raise field_error(SpecError, "replans", self.replans, "an integer >= 0", where)
         if self.priority not in PRIORITIES:
             raise field_error(SpecError, "priority", self.priority, ", ".join(PRIORITIES), where)

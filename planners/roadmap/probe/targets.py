@@ -12,38 +12,45 @@ from __future__ import annotations
 import numpy as np
 
 from rfp_twin.models.errors import TargetError
-from rfp_twin.planners.roadmap.probe.world import pose_gaps
+from rfp_twin.planners.roadmap.probe.world import arm_gaps
 
 #: Tips drawn per arm before a target set is started again.
 TRIES_PER_ARM = 200
 #: Target sets started at most.
-MAX_SETS = 50
+MAX_SETS = 200
 
 
 def random_target_set(kind, rng: np.random.Generator, n_targets: int, start: np.ndarray | None = None,
                       *, radius_mm: float | None = None, max_travel_s: float = 120.0,
-                      clearance_mm: float = 0.0) -> np.ndarray:
+                      clearance_mm: float = 0.0, rest: np.ndarray | None = None,
+                      arms: np.ndarray | None = None) -> np.ndarray:
     """(n_arms, 2) deg: ``n_targets`` arms (drawn at random) get a tip in the disk of
-    ``radius_mm`` (default the field) about the field centre, the others keep ``start``
-    (default park).
+    ``radius_mm`` (default the field) about the field centre, the others go to ``rest``
+    (default: stay at ``start``, itself park by default; the paper's allocator parks the
+    arms it assigns no target, Sect. 2.1). ``arms`` names the arms that get a target
+    (default: ``n_targets`` drawn at random).
 
     Each final pose is outside the ZoA, reached by the direct route within
     ``max_travel_s`` (Eq. 5), and its capsules are more than ``clearance_mm`` beyond
     both safety buffers from every other arm's final pose.
     """
     n = kind.n_arms
+    if arms is not None:
+        arms = np.asarray(arms, dtype=np.int64)
+        n_targets = len(arms)
     if not 0 <= n_targets <= n:
         raise TargetError(f"n_targets = {n_targets}; allowed: [0, {n}] (arms on the bench)")
     start = kind.park() if start is None else np.asarray(start, dtype=np.float64)
+    rest = start if rest is None else np.asarray(rest, dtype=np.float64)
     radius = kind.spec.field_radius_mm if radius_mm is None else float(radius_mm)
     vmax = kind.max_speed_deg_s()
     pad = 2.0 * kind.spec.buffer_mm + clearance_mm
     frames = kind.frames()
     for _ in range(MAX_SETS):
-        goal = start.copy()
-        chosen = rng.permutation(n)[:n_targets]
+        goal = rest.copy()
+        chosen = rng.permutation(n)[:n_targets] if arms is None else rng.permutation(arms)
         placed = np.zeros(n, dtype=bool)
-        placed[np.setdiff1d(np.arange(n), chosen)] = True   # arms staying at their start
+        placed[np.setdiff1d(np.arange(n), chosen)] = True   # arms going to their rest pose
         ok = True
         for i in chosen:
             r = radius * np.sqrt(rng.random(TRIES_PER_ARM))
@@ -55,7 +62,7 @@ def random_target_set(kind, rng: np.random.Generator, n_targets: int, start: np.
             found = False
             for q in poses[fine]:
                 goal[i] = q
-                gaps = pose_gaps(goal, kind.links, kind.sizes, frames, pad)[i]
+                gaps = arm_gaps(goal, int(i), kind.links, kind.sizes, frames, pad)
                 if np.all(gaps[placed] > 0.0):
                     found = True
                     break
@@ -69,11 +76,23 @@ def random_target_set(kind, rng: np.random.Generator, n_targets: int, start: np.
                       f"{MAX_SETS} tries; allowed: fewer targets or a larger disk")
 
 
-def typical_scenario(kind, seed: int = 7) -> tuple[np.ndarray, np.ndarray]:
-    """A scenario like Sabater 2018 Sect. 8.1: every arm from park to a target near the
-    field centre (the tips drawn in the central 70 mm disk, so that routes cross and pass
-    other arms' goals: en-route and goal conflicts). Returns ``(start, goal)``, (n_arms, 2)
-    deg each. The paper's target positions are not published; this set is ours."""
+def typical_scenario(kind, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """A scenario like Sabater 2018 Sect. 8.1: every arm from park; nine targets near the
+    field centre (tips drawn in the central :data:`TYPICAL_CORE_MM` disk, so that routes
+    cross and pass other arms' goals: en-route and goal conflicts, Fig. 13), the other
+    arms to blank sky anywhere in the field (the allocator's choice for arms without a
+    target, Sect. 2.1; all 12 arms move in Tables 1-2). Returns ``(start, goal)``,
+    (n_arms, 2) deg each. The paper's target positions are not published; this set is
+    ours."""
     rng = np.random.default_rng(seed)
     start = kind.park()
-    return start, random_target_set(kind, rng, kind.n_arms, start, radius_mm=110.0)
+    n_core = min(TYPICAL_TARGETS, kind.n_arms)
+    goal = random_target_set(kind, rng, n_core, start, radius_mm=TYPICAL_CORE_MM)
+    rest = np.flatnonzero(np.all(goal == start, axis=1))
+    return start, random_target_set(kind, rng, 0, start, rest=goal, arms=rest)
+
+
+#: Science targets of the typical scenario (Sabater 2018 Fig. 6: nine of twelve arms).
+TYPICAL_TARGETS = 9
+#: Radius of the central disk its targets are drawn in, mm.
+TYPICAL_CORE_MM = 70.0

@@ -131,6 +131,22 @@ def pose_gaps(q, links, sizes, frames, pad):
     return out
 
 
+@njit(cache=True)
+def arm_gaps(q, i, links, sizes, frames, pad):
+    """(n,) smallest capsule gap (mm, as :func:`pose_gaps`) between arm ``i`` and every
+    arm at poses ``q`` (n, 2) deg; inf for ``i`` itself."""
+    n = q.shape[0]
+    own = np.empty((5, 5))
+    other = np.empty((5, 5))
+    _world_capsules(q[i, 0], q[i, 1], links, sizes, frames[i], own)
+    out = np.full(n, np.inf)
+    for b in range(n):
+        if b != i:
+            _world_capsules(q[b, 0], q[b, 1], links, sizes, frames[b], other)
+            out[b] = _pair_min_gap(own, other, pad)
+    return out
+
+
 class ObstacleTime:
     """The arms planned so far, sampled on the ``dt_col`` clock up to ``horizon_s``."""
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rfp_twin.models.errors import KindError, TargetError
+from rfp_twin.models.errors import KindError, SpecError, TargetError
 from rfp_twin.models.kinds import AlphaBetaKind, load_kind
 from rfp_twin.models.robot import load_spec
 from rfp_twin.planners.roadmap.probe import (ProbePlanSettings, plan_probe_arms, random_target_set,
@@ -92,3 +92,25 @@ def test_other_kinds_and_bad_poses_are_refused(kind):
     goal = kind.poses_for_tips(tips)
     with pytest.raises(TargetError, match="^arms 4 and 5: target poses touch"):
         plan_probe_arms(kind, park, goal)
+
+
+#: Seven targets (arms 2, 5-9, 11; the others parked) on which one pass with the
+#: travel-time priorities fails (drawn by random_target_set, seed 2, 13th set).
+HARD = [[180.0, 0.0], [180.0, 0.0], [88.650005364, 83.714576626], [180.0, 0.0], [180.0, 0.0],
+        [25.988124645, 135.266819314], [30.375246344, 151.171714314],
+        [33.077121988, 172.625368593], [95.881798441, 62.117528316],
+        [73.890769634, 50.065459105], [180.0, 0.0], [52.936051829, 184.493653595]]
+
+
+def test_replanning_with_the_failed_arm_first(kind):
+    park, goal = kind.park(), np.array(HARD)
+    one = plan_probe_arms(kind, park, goal, ProbePlanSettings(), np.random.default_rng(12))
+    assert not one.success and one.passes == 1
+    again = plan_probe_arms(kind, park, goal, ProbePlanSettings(replans=2),
+                            np.random.default_rng(12))
+    assert again.success and again.passes >= 2 and again.order[0] == one.failed_arm
+    assert again.all_checks > again.checks
+    rep = check_probe_plan(kind.spec, again.breakpoints(), dt_s=0.02, max_start_stop=1)
+    assert rep.ok, (rep.min_gap_mm, rep.worst)
+    with pytest.raises(SpecError, match="'replans'"):
+        ProbePlanSettings(replans=-1)

@@ -71,10 +71,12 @@ def test_an_unmeetable_quota_names_region_and_best_count(tmp_path):
 def test_plan_a_catalogue_keeps_every_assigned_target(tmp_path):
     out = tmp_path / "p"
     r = run("plan", "--layout", "hex:19", "--buffer", "2.0", "--telescope", "none",
-            "--catalogue", "mock:uniform:1.5/patrol", "--seed", "2", "--out", str(out))
+            "--catalogue", "mock:uniform:1.5/patrol,sky=0.3", "--sky-quota", "2", "--seed", "2",
+            "--out", str(out))
     assert r.returncode == 0, r.stderr
     s = json.loads((out / "summary.json").read_text())
     a = s["assignment"]
+    assert a["counts"]["sky"] >= 2
     assert a["kept"] == a["assigned"] > 0 and a["lost"] == 0 and a["n_rounds"] >= 1
     assert s["check2d"]["ok"]
     rows = list(csv.DictReader((out / "assignment.csv").open()))
@@ -84,3 +86,35 @@ def test_plan_a_catalogue_keeps_every_assigned_target(tmp_path):
             str(out / "assignment.csv"), "--out", str(tmp_path / "q"))
     assert r.returncode == 2 and "allowed: one of them" in r.stderr
     assert not (tmp_path / "q").exists()
+
+
+def test_a_sky_catalogue_on_the_calibrated_instrument(tmp_path):
+    """ra/dec about a field centre, APO plate scale, wok frame -> planning frame; the
+    written target positions are the projected ones and each lands within reach."""
+    from rfp_twin.models.catalogue import TELESCOPES, sky_to_focal
+    from rfp_twin.models.instrument import wok_to_plane
+
+    rng = np.random.default_rng(4)
+    ra = 150.0 + rng.uniform(-1.2, 1.2, 400) / np.cos(np.radians(20.0))
+    dec = 20.0 + rng.uniform(-1.2, 1.2, 400)
+    cat = tmp_path / "sky.csv"
+    with cat.open("w") as fh:
+        fh.write("id,ra_deg,dec_deg,fiber\n")
+        for k in range(ra.size):
+            fh.write(f"{1000 + k},{float(ra[k])!r},{float(dec[k])!r},boss\n")
+    out = tmp_path / "a"
+    r = run("assign", "--preset", "sdss-v-production", "--layout", "sdss-v-apo",
+            "--buffer", "2.0", "--catalogue", str(cat), "--field-centre", "150,20",
+            "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    rows = [row for row in csv.DictReader((out / "assignment.csv").open()) if row["target_id"]]
+    assert len(rows) > 50
+    x, y = sky_to_focal(ra, dec, 150.0, 20.0, TELESCOPES["apo"].plate_scale_mm_per_deg)
+    plane = wok_to_plane(np.column_stack([x, y]))
+    for row in rows[:20]:
+        k = int(row["target_id"]) - 1000
+        assert np.allclose([float(row["x_mm"]), float(row["y_mm"])], plane[k], atol=1e-3)
+        assert row["robot_fiber"] == "boss"
+    r = run("assign", "--layout", "sdss-v-apo", "--catalogue", str(cat), "--field-centre",
+            "150,95", "--out", str(tmp_path / "b"))
+    assert r.returncode == 2 and "field 'dec' = 95.0; allowed: [-90, 90] deg" in r.stderr

@@ -37,3 +37,13 @@ def test_roadmap_plans_the_typical_scenario(tmp_path):
     plan = json.loads((out / "plan.json").read_text())
     assert sorted(plan, key=int) == [str(i) for i in range(12)]
     assert plan["0"]["theta1"][0] == [180.0, 0.0]             # park, at t = 0
+
+
+def test_export_reloads_in_mujoco(tmp_path):
+    import mujoco
+
+    r = CliRunner().invoke(app, ["model", "export", "--preset", "miradas-probe", "--layout",
+                                 "miradas-6", "--out", str(tmp_path / "m")])
+    assert r.exit_code == 0, r.output
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "m" / "rfp-twin.xml"))
+    assert (m.neq, m.nu) == (6, 12)
