@@ -54,7 +54,7 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.planners.fields import (ApfSettings, CapfSettings, apf_target_margin_mm, plan_apf,
                           random_tip_configs)
-from rfp_twin.planners.targets import random_targets
+from rfp_twin.planners.plan.targets import random_targets
 from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 
 #: Macktoobian 2019 Table 1, test batch 1: N -> (APF converged, CAPF converged, lambda3).

@@ -41,7 +41,7 @@ PAPER_TYPICAL = {"seconds": 16.14, "checks": 75684, "makespan_steps": 19, "optim
 
 def typical(repeat: int) -> None:
     from rfp_twin.models.kinds import load_kind
-    from rfp_twin.planners.probe import plan_probe_arms, typical_scenario
+    from rfp_twin.planners.roadmap.probe import plan_probe_arms, typical_scenario
 
     walls = []
     for k in range(repeat):
@@ -78,7 +78,7 @@ def typical(repeat: int) -> None:
 
 def many(n_sets: int, seed: int, check_dt: float) -> None:
     from rfp_twin.models.kinds import load_kind
-    from rfp_twin.planners.probe import ProbePlanSettings, plan_probe_arms, random_target_set
+    from rfp_twin.planners.roadmap.probe import ProbePlanSettings, plan_probe_arms, random_target_set
     from rfp_twin.validation.probe import check_probe_plan
 
     kind = load_kind("miradas-probe")

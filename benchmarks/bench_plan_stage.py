@@ -17,7 +17,7 @@ the re-runs, the search, the continuation (``metrics``) and of the searches'
 single-robot roadmap plans of the search that found no trajectory: their number, paths
 tried and seconds (``plan_arm`` timed in this process). One warm-up plan of the first
 seed runs first (numba kernels loaded or compiled). ``--whole-attempts N`` sets
-``rfp_twin.planners.rerun.WHOLE_ATTEMPTS`` (the whole-array re-run ladder's cap) for the
+``rfp_twin.planners.deadlocks.rerun.WHOLE_ATTEMPTS`` (the whole-array re-run ladder's cap) for the
 whole run, to measure another cap.
 
 To time older code, put a directory holding ``rfp_twin`` (a link to a worktree of it)
@@ -47,7 +47,7 @@ def main() -> None:
     ap.add_argument("--md-out", default=None)
     a = ap.parse_args()
 
-    import rfp_twin.planners.resolve_search.resolve as resolve
+    import rfp_twin.planners.deadlocks.search.resolve as resolve
     import rfp_twin.planners.roadmap.priority as priority
     from rfp_twin.models.robot import load_spec
     from rfp_twin.twin.cli.layout_option import chosen_layout
@@ -75,7 +75,7 @@ def main() -> None:
 
     resolve.trim_tails = timed_trim
     if a.whole_attempts is not None:
-        import rfp_twin.planners.rerun as rerun
+        import rfp_twin.planners.deadlocks.rerun as rerun
         rerun.WHOLE_ATTEMPTS = a.whole_attempts
     spec = load_spec(a.preset)
     layout = chosen_layout(None, None, spec)

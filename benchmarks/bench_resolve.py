@@ -16,7 +16,7 @@ then the same targets planned twice by the pipeline's planning step
 * ``replace``: one target per deadlocked group replaced, everything re-planned (Sayres
   2021 Sect. 5.2; ``PlannerSettings(resolve="replace")``);
 * ``search``: each deadlocked group re-planned by the prioritized state-time search of
-  ``planners/resolve_search.py`` (Sabater 2018), targets kept; a target is replaced
+  ``planners/deadlocks/search.py`` (Sabater 2018), targets kept; a target is replaced
   only where the search fails (``PlannerSettings(resolve="search")``).
 
 Both start from the same first stepwise run. Step: 0.25 deg below 3 mm, 0.1 deg from

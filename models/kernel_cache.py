@@ -13,6 +13,11 @@ first call, as without it.
 numba's compiler lock serialises loads: a kernel that the main thread calls while the
 thread loads another waits for that load. So the thread can be told to start only once
 the main thread's long kernel is loaded (``after``).
+
+Which kernels to load is registered where they live: a module calls :func:`warm_up` on
+the kernels it calls from Python, under the stage that calls them (:data:`DELIVERY`: a
+plan's paths, its post-processing and the 2D check), and the pipeline asks
+:func:`warm_kernels` for a stage's kernels.
 """
 from __future__ import annotations
 
@@ -21,10 +26,34 @@ import threading
 import time
 from collections.abc import Iterable
 
-__all__ = ["Preload", "cached_signatures", "kernel_by_name", "preload_cached"]
+__all__ = ["DELIVERY", "Preload", "cached_signatures", "kernel_by_name", "preload_cached",
+           "warm_kernels", "warm_up"]
 
 #: How often the thread looks whether the kernel it waits for is loaded, s.
 _POLL_S = 0.002
+
+#: Stage of the kernels called from Python once the planner's runs are over: the plan's
+#: paths, post-processing and the independent 2D check.
+DELIVERY = "delivery"
+
+#: Stage -> the kernels registered for it, in registration order.
+_WARM: dict[str, list] = {}
+
+
+def warm_up(stage: str, *kernels) -> None:
+    """Register ``kernels`` (``@njit(cache=True)`` dispatchers) as called from Python by
+    ``stage``, in the order given (the order the stage calls them), for
+    :func:`preload_cached` to load ahead. The module that defines them calls this at
+    import. Name only kernels called from Python: one called from another kernel is
+    compiled into its caller."""
+    own = _WARM.setdefault(stage, [])
+    own.extend(k for k in kernels if k not in own)
+
+
+def warm_kernels(stage: str) -> tuple:
+    """The kernels registered for ``stage`` (:func:`warm_up`) by the modules imported
+    so far, in registration order."""
+    return tuple(_WARM.get(stage, ()))
 
 
 def cached_signatures(dispatcher) -> list[tuple]:
@@ -63,7 +92,7 @@ def kernel_by_name(name: str):
     return value
 
 
-def _load(names: tuple[str, ...], after: str | None, go: threading.Event) -> None:
+def _load(names: tuple, after: str | None, go: threading.Event) -> None:
     if after is not None:
         # let the main thread load (and start) that kernel first: numba's compiler lock
         # would otherwise make it wait for the loads below
@@ -71,7 +100,7 @@ def _load(names: tuple[str, ...], after: str | None, go: threading.Event) -> Non
         while not first.overloads and not go.wait(_POLL_S):
             pass
     for name in names:
-        dispatcher = kernel_by_name(name)
+        dispatcher = kernel_by_name(name) if isinstance(name, str) else name
         if dispatcher.overloads:
             continue                    # loaded already (a process's later runs)
         for sig in cached_signatures(dispatcher):
@@ -85,7 +114,7 @@ def _load(names: tuple[str, ...], after: str | None, go: threading.Event) -> Non
 class Preload:
     """The thread of :func:`preload_cached`."""
 
-    def __init__(self, names: tuple[str, ...], after: str | None) -> None:
+    def __init__(self, names: tuple, after: str | None) -> None:
         self._go = threading.Event()
         self._thread = threading.Thread(target=_load, args=(names, after, self._go),
                                         name="rfp-kernel-preload", daemon=True)
@@ -102,9 +131,10 @@ class Preload:
         self._thread.join()
 
 
-def preload_cached(names: Iterable[str], *, after: str | None = None) -> Preload:
-    """Start a daemon thread that loads the kernels ``names`` ("package.module:function",
-    in the order they will be called) from numba's cache, each with every signature the
+def preload_cached(names: Iterable, *, after: str | None = None) -> Preload:
+    """Start a daemon thread that loads the kernels ``names`` (dispatchers, e.g. from
+    :func:`warm_kernels`, or "package.module:function"; in the order they will be called)
+    from numba's cache, each with every signature the
     cache holds for its current source. Name only the kernels called from Python: a kernel
     called from another kernel is compiled into its caller, so loading it alone would only
     cost time. With ``after`` (a kernel's name), the thread first waits until that kernel

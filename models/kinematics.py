@@ -12,6 +12,7 @@ import numpy as np
 from numba import njit
 
 from rfp_twin.models.errors import TargetError
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
 
 DEG = math.pi / 180.0
 
@@ -207,3 +208,7 @@ def inverse_fiber(base_xy: np.ndarray, target_xy: np.ndarray, l_alpha: np.ndarra
     out[:, 1] = (out[:, 1] - phi) % 360.0
     out[out >= 360.0] = 0.0
     return out
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, forward)

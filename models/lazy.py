@@ -3,7 +3,7 @@
 ``import planners`` (or models, validation, twin) then stays cheap, and numba, mujoco
 or fcl load only when a name that needs them is used::
 
-    __getattr__, __dir__ = lazy_exports(__name__, {"plan_reconfiguration": "rfp_twin.planners.solver"})
+    __getattr__, __dir__ = lazy_exports(__name__, {"plan_reconfiguration": "rfp_twin.planners.plan"})
 """
 from __future__ import annotations
 

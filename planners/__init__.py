@@ -22,14 +22,12 @@ from rfp_twin.models.lazy import lazy_exports
 
 _LAZY = {
     **dict.fromkeys(("PlannerSettings", "plan_reconfiguration", "ALGORITHMS", "DIRECTIONS",
-                     "RESOLVERS"), "rfp_twin.planners.solver"),
-    **dict.fromkeys(("Plan", "REACHED", "REPLACED", "DEADLOCKED", "OFFLINE", "STATUSES"),
-                    "rfp_twin.planners.plan"),
-    **dict.fromkeys(("random_targets", "check_targets", "check_angles"), "rfp_twin.planners.targets"),
-    "apply_offline": "rfp_twin.planners.offline",
+                     "RESOLVERS", "Plan", "REACHED", "REPLACED", "DEADLOCKED", "OFFLINE",
+                     "STATUSES", "random_targets", "check_targets", "check_angles",
+                     "apply_offline"), "rfp_twin.planners.plan"),
     "max_displacement": "rfp_twin.planners.stepwise",
     "array_max_displacement": "rfp_twin.planners.stepwise",
-    "SearchResolveSettings": "rfp_twin.planners.resolve_search",
+    "SearchResolveSettings": "rfp_twin.planners.deadlocks.search",
     "RoadmapSettings": "rfp_twin.planners.roadmap",
     **dict.fromkeys(("ApfSettings", "CapfSettings", "plan_apf", "plan_apf_reconfiguration",
                      "apf_target_margin_mm"), "rfp_twin.planners.fields"),

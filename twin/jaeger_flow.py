@@ -37,7 +37,7 @@ from rfp_twin.planners.plan import DEADLOCKED, Plan
 from rfp_twin.planners.postprocess.production import ProductionSettings, production_trajectories
 from rfp_twin.planners.stepwise import array_max_displacement
 from rfp_twin.planners.stepwise.recovery import min_clearance
-from rfp_twin.planners.targets import random_targets
+from rfp_twin.planners.plan.targets import random_targets
 from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 from rfp_twin.validation.checker2d import CheckReport, check_trajectory
 

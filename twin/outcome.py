@@ -12,13 +12,19 @@ import dataclasses
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import DEADLOCKED, Plan
 from rfp_twin.twin.run_dir import write_run
+from rfp_twin.validation.checker2d import CheckReport
+
+if TYPE_CHECKING:                     # imported at run time by the modules that make them
+    from rfp_twin.planners.fields import ApfResult
+    from rfp_twin.planners.postprocess import PostprocessReport
+    from rfp_twin.twin.pipeline import Reconfiguration
 
 
 @dataclass
@@ -38,15 +44,15 @@ class Outcome:
     seconds : wall seconds per stage: targets, plan, deliver, total
     """
 
-    reconfiguration: Any
+    reconfiguration: Reconfiguration
     seed: int
     targets: np.ndarray
     plan: Plan
-    field: Any
+    field: ApfResult | None
     trajectory: Trajectory
-    post: Any
-    check: Any
-    seconds: dict = field(default_factory=dict)
+    post: PostprocessReport | None
+    check: CheckReport
+    seconds: dict[str, float] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:

@@ -30,18 +30,18 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import KindError, PlanningError, RfpError
-from rfp_twin.models.kernel_cache import preload_cached
+from rfp_twin.models.kernel_cache import DELIVERY, preload_cached, warm_kernels
 from rfp_twin.models.layout import Layout, default_layout_name, layout_by_name
 from rfp_twin.models.kinds import ALPHA_BETA
 from rfp_twin.models.robot import RobotSpec, load_spec, preset_kind
 from rfp_twin.models.trajectory import Trajectory
-from rfp_twin.planners.kinds import require_planner_kind
-from rfp_twin.planners.offline import apply_offline
+from rfp_twin.planners.plan.kinds import require_planner_kind
+from rfp_twin.planners.plan.offline import apply_offline
 from rfp_twin.planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
-from rfp_twin.planners.solver import (ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings,
+from rfp_twin.planners.plan import (ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings,
                                       plan_reconfiguration)
 from rfp_twin.planners.stepwise import array_max_displacement
-from rfp_twin.planners.targets import random_targets
+from rfp_twin.planners.plan.targets import random_targets
 from rfp_twin.planners.postprocess.timing import BACKENDS, DEFAULT_BACKEND
 from rfp_twin.twin.outcome import Outcome
 from rfp_twin.validation.checker2d import check_trajectory
@@ -54,23 +54,11 @@ ALL_ALGORITHMS = ALGORITHMS + FIELD_ALGORITHMS
 RESOLUTIONS = RESOLVERS + ("none",)
 #: Extra clearance (mm) beyond a field's barrier that random targets keep.
 FIELD_TARGET_SLACK_MM = 0.5
-#: The numba kernels that post-processing and the 2D check call from Python, in order:
-#: loaded from the cache on another thread once the stepwise planners' kernel
-#: (:data:`PLANNER_KERNEL`, which releases the GIL) is loaded and running
-#: (:func:`rfp_twin.models.kernel_cache.preload_cached`): ~0.2 s of a Markov command.
+#: The stepwise planners' kernel (it releases the GIL): once it is loaded and running, the
+#: kernels that the plan's paths, post-processing and the 2D check call from Python (each
+#: module registers its own: :func:`rfp_twin.models.kernel_cache.warm_up`) load from
+#: numba's cache on another thread (:func:`rfp_twin.models.kernel_cache.preload_cached`).
 PLANNER_KERNEL = "rfp_twin.planners.stepwise.kernel:run_stepwise_arrays"
-DELIVER_KERNELS = tuple("rfp_twin." + k for k in (
-    "planners.plan:_build_paths", "planners.postprocess.limits:_scan",
-    "planners.postprocess.simplify:_reversals", "planners.postprocess.simplify:_simplify_plan",
-    "planners.postprocess.smoothing:_average_kernel", "planners.postprocess.smoothing:_moving_range",
-    "planners.postprocess.timing.grouping:_pair_clearance_below",
-    "planners.postprocess.singles:_time_singles", "planners.postprocess.smoothing:_evaluate_many",
-    "planners.postprocess.timing.grid:knot_grid",
-    "planners.postprocess.timing.kernel:topp_kernel", "planners.postprocess.timing.law:law_times",
-    "planners.postprocess.timing.law:s_at_times", "planners.postprocess.simplify:simplify_columns_kernel",
-    "planners.postprocess.timing.kinematics:pl_kinematics", "models.kinematics:forward",
-    "validation.checker2d.kernel:_scan_pairs", "validation.checker2d.kernel:_record_pairs",
-    "planners.postprocess.smoothing:_max_deviation"))
 
 __all__ = ["ALL_ALGORITHMS", "FIELD_ALGORITHMS", "RESOLUTIONS", "PlanOptions", "Reconfiguration",
            "Outcome", "check_trajectory"]
@@ -290,7 +278,7 @@ class Reconfiguration:
         t0 = time.perf_counter()
         stage("planning")
         # the next stage's kernels load from numba's cache beside the planner's nogil runs
-        preload = None if self.options.raw else preload_cached(DELIVER_KERNELS,
+        preload = None if self.options.raw else preload_cached(warm_kernels(DELIVERY),
                                                                after=PLANNER_KERNEL)
         try:
             plan, field = self.plan(tg, rng, on_round=on_round)

@@ -2,7 +2,7 @@
 
 The probe-arm counterpart of :class:`rfp_twin.twin.pipeline.Reconfiguration` for kinds
 other than alpha/beta (MIRADAS, Sabater et al. 2018): :func:`plan_probe_bench` draws or
-takes the targets, plans with :func:`rfp_twin.planners.probe.plan_probe_arms` and checks
+takes the targets, plans with :func:`rfp_twin.planners.roadmap.probe.plan_probe_arms` and checks
 the plan with :func:`rfp_twin.validation.probe.check_probe_plan`; :func:`write_probe_run`
 writes ``plan.json`` (per arm and motor, ``[[deg, s], ...]`` breakpoints: the straight
 segments the start-stop controllers execute), ``summary.json`` and ``tables.txt`` into a
@@ -21,8 +21,8 @@ import numpy as np
 
 from rfp_twin.models.errors import KindError, RfpError, TargetError
 from rfp_twin.models.kinds import MIRADAS_PROBE, load_kind
-from rfp_twin.planners.kinds import require_planner_kind
-from rfp_twin.planners.probe import (ProbePlan, ProbePlanSettings, plan_probe_arms,
+from rfp_twin.planners.plan.kinds import require_planner_kind
+from rfp_twin.planners.roadmap.probe import (ProbePlan, ProbePlanSettings, plan_probe_arms,
                                      random_target_set, typical_scenario)
 from rfp_twin.validation.probe import ProbeCheckReport, check_probe_plan
 

@@ -44,7 +44,7 @@ from rfp_twin.planners.stepwise import array_max_displacement, run_array  # noqa
 from rfp_twin.planners.stepwise.mdp2 import FW_C0, FW_C1, GREED, PHOBIA, TRIES  # noqa: E402
 from rfp_twin.planners.stepwise.mdp2_run import (encoder_offsets, run_mdp2,  # noqa: E402
                                                  watched_robots)
-from rfp_twin.planners.targets import random_targets  # noqa: E402
+from rfp_twin.planners.plan.targets import random_targets  # noqa: E402
 from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration  # noqa: E402
 
 STEP_DEG = 0.1

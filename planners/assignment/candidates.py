@@ -151,7 +151,8 @@ def _obstacle_clear(robot, seg, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer
 
 def build_candidates(geom, catalogue: Catalogue, *, margin_mm: float = 0.0,
                      arms: tuple[str, ...] = ARMS,
-                     forbidden: set[tuple[int, int]] | None = None) -> Candidates:
+                     forbidden: set[tuple[int, int]] | None = None,
+                     fixed: dict[int, tuple[float, float]] | None = None) -> Candidates:
     """Every candidate pose of ``catalogue`` on ``geom`` (module docstring).
 
     Parameters
@@ -161,6 +162,8 @@ def build_candidates(geom, catalogue: Catalogue, *, margin_mm: float = 0.0,
     margin_mm : clearance beyond the collision rule that a pose keeps from obstacles
     arms : which arm solutions are candidates (``right``, ``left``)
     forbidden : {(robot id, target id)} pairs that may not be candidates
+    fixed : {robot id: (alpha, beta) deg} robots that do not move (offline): their one
+        candidate is that pose, in place of the parking pose
     """
     n = geom.n_robots
     slots = robot_fiber_slots(geom)
@@ -185,6 +188,12 @@ def build_candidates(geom, catalogue: Catalogue, *, margin_mm: float = 0.0,
         bad = np.array([(int(geom.robot_ids[r]), int(catalogue.ids[t])) in forbidden
                         for r, t in zip(pairs_r.tolist(), pairs_t.tolist())], dtype=bool)
         pairs_r, pairs_t = pairs_r[~bad], pairs_t[~bad]
+    still = np.zeros(n, dtype=bool)
+    fixed_rows = {geom.layout.robot_index(int(r)): ang for r, ang in (fixed or {}).items()}
+    if fixed_rows:
+        still[list(fixed_rows)] = True
+        keep = ~still[pairs_r]       # an offline robot takes no target
+        pairs_r, pairs_t = pairs_r[keep], pairs_t[keep]
 
     parts = []
     for s in range(2):
@@ -200,6 +209,8 @@ def build_candidates(geom, catalogue: Catalogue, *, margin_mm: float = 0.0,
                                                                 dtype=np.int8),
                           np.full(int(ok.sum()), s, dtype=np.int8)))
     park = parking_angles(geom)
+    for k, ang in fixed_rows.items():
+        park[k] = ang
     parts.append((np.arange(n, dtype=np.int64), np.full(n, -1, dtype=np.int64), park,
                   np.full(n, PARKED, dtype=np.int8), np.full(n, -1, dtype=np.int8)))
     robot = np.concatenate([p[0] for p in parts])

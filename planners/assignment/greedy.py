@@ -13,6 +13,10 @@ another pose of ``j`` (a free target, the one the first robot lets go, or its pa
 clear of the new pose and of ``j``'s other neighbours, and make both moves when the sum
 of the two weights grows. Each accepted move raises the objective, so the sweeps end.
 
+Ejection moves (:func:`eject_kernel`) then let one robot give way, even to a lighter
+pose, when its neighbours gain more; the two kinds of moves alternate until neither
+gains.
+
 Robots are indices, candidates as :class:`rfp_twin.planners.assignment.candidates.Candidates`.
 """
 from __future__ import annotations
@@ -152,6 +156,73 @@ def _move(i, a, chosen, target, holder):
         holder[target[a]] = i
 
 
+@njit(cache=True)
+def eject_kernel(seg, robot, target, weight, ptr, n_targets, nbr_ptr, nbr_idx, buffer, margin,
+                 chosen, allowed, max_sweeps):
+    """Ejection moves on ``chosen`` in place: a robot takes another of its poses (parking
+    included) clear of its neighbours, even a lighter one, then each neighbour in turn
+    takes its heaviest pose that is now free and clear; kept when the total weight grows,
+    undone otherwise. Catches what the one-for-one moves of :func:`improve_kernel` miss:
+    one robot's pose blocking two others. Returns the sweeps run."""
+    n = chosen.shape[0]
+    holder = np.full(max(n_targets, 1), -1, dtype=np.int64)
+    for i in range(n):
+        if target[chosen[i]] >= 0:
+            holder[target[chosen[i]]] = i
+    stack_r = np.empty(nbr_idx.shape[0] + 1, dtype=np.int64)
+    stack_c = np.empty(nbr_idx.shape[0] + 1, dtype=np.int64)
+    sweeps = 0
+    changed = True
+    while changed and sweeps < max_sweeps:
+        changed = False
+        sweeps += 1
+        for j in range(n):
+            for b in range(ptr[j], ptr[j + 1]):
+                cj = chosen[j]
+                if b == cj or not allowed[b]:
+                    continue
+                tb = target[b]
+                if tb >= 0 and holder[tb] >= 0 and holder[tb] != j:
+                    continue
+                if not _clear_of_neighbours(seg, j, b, chosen, nbr_ptr, nbr_idx, buffer, margin,
+                                            -1):
+                    continue
+                depth = 0
+                stack_r[depth] = j
+                stack_c[depth] = cj
+                depth += 1
+                gain = weight[b] - weight[cj]
+                _move(j, b, chosen, target, holder)
+                for q in range(nbr_ptr[j], nbr_ptr[j + 1]):
+                    i = nbr_idx[q]
+                    ci = chosen[i]
+                    best = -1
+                    best_w = weight[ci]
+                    for a in range(ptr[i], ptr[i + 1]):
+                        if not allowed[a] or weight[a] <= best_w:
+                            continue
+                        ta = target[a]
+                        if ta >= 0 and holder[ta] >= 0 and holder[ta] != i:
+                            continue
+                        if not _clear_of_neighbours(seg, i, a, chosen, nbr_ptr, nbr_idx, buffer,
+                                                    margin, -1):
+                            continue
+                        best = a
+                        best_w = weight[a]
+                    if best >= 0:
+                        stack_r[depth] = i
+                        stack_c[depth] = ci
+                        depth += 1
+                        gain += weight[best] - weight[ci]
+                        _move(i, best, chosen, target, holder)
+                if gain > 1e-12:
+                    changed = True
+                else:
+                    for k in range(depth - 1, -1, -1):
+                        _move(stack_r[k], stack_c[k], chosen, target, holder)
+    return sweeps
+
+
 def greedy_order(cands, n_targets: int, degree: np.ndarray | None = None) -> np.ndarray:
     """Target candidates by decreasing weight, then fewest other poses excluded (the poses
     of other robots it collides with, ``degree`` (c,), plus the other candidates of its
@@ -176,7 +247,13 @@ def greedy_assign(cands, n_targets: int, nbr_ptr: np.ndarray, nbr_idx: np.ndarra
     greedy_kernel(cands.seg, cands.robot, cands.target, cands.weight, cands.ptr,
                   greedy_order(cands, n_targets, degree), n_targets, nbr_ptr, nbr_idx, buffer,
                   float(margin_mm), chosen, allowed)
-    sweeps = improve_kernel(cands.seg, cands.robot, cands.target, cands.weight, cands.ptr,
-                            n_targets, nbr_ptr, nbr_idx, buffer, float(margin_mm), chosen,
-                            allowed, int(max_sweeps))
+    args = (cands.seg, cands.robot, cands.target, cands.weight, cands.ptr, n_targets, nbr_ptr,
+            nbr_idx, buffer, float(margin_mm), chosen, allowed, int(max_sweeps))
+    sweeps = 0
+    for _ in range(max(1, int(max_sweeps))):
+        before = float(cands.weight[chosen].sum())
+        sweeps += improve_kernel(*args)
+        sweeps += eject_kernel(*args)
+        if float(cands.weight[chosen].sum()) <= before + 1e-12:
+            break
     return chosen, int(sweeps)

@@ -36,8 +36,8 @@ from rfp_twin.planners.fields.field import start_violation
 from rfp_twin.planners.fields.kernel import run_apf
 from rfp_twin.planners.fields.result import STOP_REASONS, ApfResult, events_trajectory, apf_plan
 from rfp_twin.planners.fields.settings import DEG, ApfSettings, buffer_excess, obstacle_csr
-from rfp_twin.planners.offline import apply_offline
-from rfp_twin.planners.targets import check_angles
+from rfp_twin.planners.plan.offline import apply_offline
+from rfp_twin.planners.plan.targets import check_angles
 from rfp_twin.planners.plan import Plan
 
 
@@ -210,7 +210,7 @@ def plan_apf_reconfiguration(geom: ArrayGeometry, targets, settings: ApfSettings
                              algorithm: str = "apf") -> tuple[Plan, ApfResult]:
     """CLI-shaped entry: plan from the folded state (or ``start``) to ``targets``.
 
-    Like :func:`rfp_twin.planners.solver.plan_reconfiguration` but direct (forward), single run,
+    Like :func:`rfp_twin.planners.plan.reconfigure.plan_reconfiguration` but direct (forward), single run,
     no target replacement: robots that do not converge are DEADLOCKED.
 
     Parameters
@@ -228,7 +228,7 @@ def plan_apf_reconfiguration(geom: ArrayGeometry, targets, settings: ApfSettings
     Raises
     ------
     UnknownRobotError, TargetError
-        Bad offline robots (:func:`rfp_twin.planners.offline.apply_offline`), or as :func:`plan_apf`.
+        Bad offline robots (:func:`rfp_twin.planners.plan.offline.apply_offline`), or as :func:`plan_apf`.
     """
     n = geom.n_robots
     if start is None:
@@ -245,7 +245,7 @@ def plan_apf_reconfiguration(geom: ArrayGeometry, targets, settings: ApfSettings
 def apf_target_margin_mm(geom: ArrayGeometry, settings: ApfSettings) -> float:
     """Clearance beyond Eq. 3 (segment mode) that targets need so the barrier allows them.
 
-    Pass it as ``margin_mm`` to :func:`rfp_twin.planners.targets.random_targets`. In tip mode the
+    Pass it as ``margin_mm`` to :func:`rfp_twin.planners.plan.targets.random_targets`. In tip mode the
     capsule clearance does not bound the tip distance; use
     :func:`rfp_twin.planners.fields.tips.random_tip_configs`.
     """

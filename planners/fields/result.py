@@ -110,7 +110,7 @@ class ApfResult:
         return bool(np.all(self.converged[self.movable]))
 
     def metrics(self) -> dict:
-        """The solver's metric keys (rfp_twin.planners.solver.plan_reconfiguration) plus APF ones.
+        """The solver's metric keys (rfp_twin.planners.plan.reconfigure.plan_reconfiguration) plus APF ones.
 
         No target is ever replaced, so ``efficiency`` (Eq. 11) and ``convergence`` are
         both the converged fraction of the movable robots; ``tau_pg_s`` is the kernel

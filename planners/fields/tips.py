@@ -4,7 +4,7 @@ Makarem et al. 2014 (Sect. 6) test their planner on random starts and targets wh
 fiber tips are "at least d apart". :func:`random_tip_configs` draws such
 configurations: right-armed, tips uniform (by area) in the patrol annulus, clear of the
 tips already placed and of the fiducial disks. Only tips count (not the arms' capsules):
-for the segment model use :func:`rfp_twin.planners.targets.random_targets` with
+for the segment model use :func:`rfp_twin.planners.plan.targets.random_targets` with
 :func:`rfp_twin.planners.fields.apf_target_margin_mm`. Angles in deg, lengths in mm.
 """
 from __future__ import annotations

@@ -17,6 +17,7 @@ import numpy as np
 from numba import njit
 
 from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
 from rfp_twin.planners.plan import Plan
 
 __all__ = ["LIMIT_ROUNDING_DEG", "within_limits"]
@@ -66,3 +67,7 @@ def within_limits(plan: Plan, limits: np.ndarray) -> Plan:
     owner = np.repeat(np.arange(plan.n_robots), np.diff(ptr))
     lim = limits[owner]                                   # (breakpoints, 2, 2)
     return replace(plan, path_angles=np.clip(plan.path_angles, lim[:, :, 0], lim[:, :, 1]))
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, _scan)

@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
 
 __all__ = ["rdp_mask", "simplify_axis", "simplify_columns", "max_deviation", "simplify_plan"]
 
@@ -255,3 +256,7 @@ def _reversals(ptr, angles):
                     turns[i] += 1
                 last = sg
     return turns
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, _reversals, _simplify_plan, simplify_columns_kernel)

@@ -28,6 +28,7 @@ import math
 import numpy as np
 from numba import njit
 
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
 from rfp_twin.models.second_thread import second_thread
 from rfp_twin.planners.postprocess.groups import TimedGroup
 from rfp_twin.planners.postprocess.simplify import simplify_columns_kernel
@@ -236,3 +237,7 @@ def time_singles(path: SmoothPath, robots: np.ndarray, vmax, amax, tol_robot: np
     _unpack(_time_singles(*args, first, *rest), first, found)
     _unpack(other.result(), second, found)
     return found
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, _time_singles)

@@ -47,6 +47,7 @@ import numpy as np
 from numba import njit, prange
 
 from rfp_twin.models.errors import SpecError, field_error
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
 from rfp_twin.planners.plan import Plan
 
 __all__ = ["METHODS", "DEFAULT_WINDOW_STEPS", "SmoothPath", "smooth_plan", "plan_deviation",
@@ -480,3 +481,7 @@ def _spline_all(plan: Plan, w: np.ndarray, pad: float, s_end: float):
     ptr = np.zeros(n + 1, dtype=np.int64)
     ptr[1:] = np.cumsum([k.size for k in pieces_knots])
     return ptr, np.concatenate(pieces_knots), np.concatenate(pieces_coef)
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, _average_kernel, _moving_range, _evaluate_many, _max_deviation)

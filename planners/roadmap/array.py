@@ -1,7 +1,7 @@
 """Sabater's prioritized roadmap planner over a whole alpha/beta array.
 
 :mod:`rfp_twin.planners.roadmap` plans arms one at a time in a priority order (Sabater 2018
-Algorithm 1); :class:`rfp_twin.planners.resolve_search.AlphaBetaWorld` gives it the black boxes
+Algorithm 1); :class:`rfp_twin.planners.deadlocks.search.AlphaBetaWorld` gives it the black boxes
 of an alpha/beta robot in an array. This module runs that planner on *every* robot, in
 the planner's frame (reverse: each robot goes from its target at step 0 to the folded
 state), as a first planner run in place of the stepwise GC/MC kernel
@@ -21,12 +21,12 @@ state), as a first planner run in place of the stepwise GC/MC kernel
   tried again after a full pass, when more of its neighbours have left their starts;
   passes repeat while some robot gets planned. A robot still without a trajectory stays
   at its start and is reported stuck: the caller resolves it like a deadlock of the
-  stepwise planner (search, then replacement; :mod:`rfp_twin.planners.solver`).
+  stepwise planner (search, then replacement; :mod:`rfp_twin.planners.plan.reconfigure`).
 
 Collisions are checked at every planner step with the stepwise planner's step rule
 (buffer_i + buffer_j + MD), and a robot moves at most ``step_deg`` per axis per step, so
 the result passes :func:`rfp_twin.validation.checker2d.check_trajectory` at the planning buffer
-exactly like the stepwise plans do (see :mod:`rfp_twin.planners.resolve_search`).
+exactly like the stepwise plans do (see :mod:`rfp_twin.planners.deadlocks.search`).
 
 Units: mm and degrees; times on the planner's step clock (one unit = one step).
 """
@@ -39,7 +39,7 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import SpecError, field_error
-from rfp_twin.planners.resolve_search import AlphaBetaWorld, PathSet, SearchResolveSettings
+from rfp_twin.planners.deadlocks.search import AlphaBetaWorld, PathSet, SearchResolveSettings
 from rfp_twin.planners.roadmap import edge_time, plan_arm
 
 

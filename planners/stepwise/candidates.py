@@ -36,8 +36,8 @@ import math
 from numba import njit
 
 from rfp_twin.models.geometry2d import segments_within
-from rfp_twin.planners.stepwise.moves import (ANGLE_EPS, DEG, _obstacle_distance, _reach_from_cos,
-                                              _rot, _sign, _toward)
+from rfp_twin.planners.stepwise.moves import (ANGLE_EPS, DEG, obstacle_distance, segment_reach,
+                                              rotate_steps, direction_sign, step_toward)
 
 
 @njit(cache=True, inline="always")
@@ -66,7 +66,7 @@ def cand_segment(cand, q, bx, by, s1, l_alpha, s0):
     cand[q, 9] = ey + s0 * cand[q, 5]
     cand[q, 10] = ex + s1 * cand[q, 4]
     cand[q, 11] = ey + s1 * cand[q, 5]
-    cand[q, 12] = _reach_from_cos(l_alpha, s0, s1, cand[q, 6])
+    cand[q, 12] = segment_reach(l_alpha, s0, s1, cand[q, 6])
 
 
 @njit(cache=True, inline="always")
@@ -88,9 +88,9 @@ def fill_candidates(cand, cost, order, ca, cb, da, db, step_deg, a_lo, a_hi, b_l
     ``cost`` (9,) its cost C = |theta - theta_dest|^2 (Eq. 8, deg^2), ``order`` the identity.
     """
     for ub in range(3):   # the beta values first, in column 1 of rows 0..2
-        cand[ub, 1] = _toward(cb, db, ub - 1, step_deg, b_lo, b_hi)
+        cand[ub, 1] = step_toward(cb, db, ub - 1, step_deg, b_lo, b_hi)
     for ua in range(3):
-        na = _toward(ca, da, ua - 1, step_deg, a_lo, a_hi)
+        na = step_toward(ca, da, ua - 1, step_deg, a_lo, a_hi)
         ea = (na - da) * (na - da)
         for ub in range(3):
             nb = cand[ub, 1]
@@ -129,20 +129,20 @@ def try_cand(cand, q, i, ca, cb, bx, by, s1, margin, check, arr, par, rs, near):
     near_k, near_col, near_cnt, near_until = near
     na = cand[q, 0]
     nb = cand[q, 1]
-    ka = _sign(na - ca)
-    kb = _sign(nb - cb)
+    ka = direction_sign(na - ca)
+    kb = direction_sign(nb - cb)
     exact = (ka != 0 and abs(abs(na - ca) - step_deg) > ANGLE_EPS) or \
             (kb != 0 and abs(abs(nb - cb) - step_deg) > ANGLE_EPS)
     if exact:
         cand_trig(cand, q, na, nb)
     else:
-        c, s = _rot(trig[i, 0], trig[i, 1], ka, cd, sd, c2d, s2d)
+        c, s = rotate_steps(trig[i, 0], trig[i, 1], ka, cd, sd, c2d, s2d)
         cand[q, 2] = c
         cand[q, 3] = s
-        c, s = _rot(trig[i, 2], trig[i, 3], ka + kb, cd, sd, c2d, s2d)
+        c, s = rotate_steps(trig[i, 2], trig[i, 3], ka + kb, cd, sd, c2d, s2d)
         cand[q, 4] = c
         cand[q, 5] = s
-        c, s = _rot(trig[i, 4], trig[i, 5], kb, cd, sd, c2d, s2d)
+        c, s = rotate_steps(trig[i, 4], trig[i, 5], kb, cd, sd, c2d, s2d)
         cand[q, 6] = c
         cand[q, 7] = s
     s0 = seg_start[i]
@@ -178,7 +178,7 @@ def try_cand(cand, q, i, ca, cb, bx, by, s1, margin, check, arr, par, rs, near):
     if not hit:
         for k in range(fid_ptr[i], fid_ptr[i + 1]):
             f = fid_idx[k]
-            if _obstacle_distance(x0, y0, x1, y1, fid_xy[f, 0], fid_xy[f, 1],
+            if obstacle_distance(x0, y0, x1, y1, fid_xy[f, 0], fid_xy[f, 1],
                                   fid_end_xy[f, 0], fid_end_xy[f, 1]) \
                     <= bi + fid_buffer[f] + margin:
                 hit = True

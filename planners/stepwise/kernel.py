@@ -26,7 +26,7 @@ Rules, as in the paper:
 * greed and phobia are per robot, so one run may mix GC robots with MC ones; an MC robot
   marked ``greedy_first`` takes its obvious move whenever it passes the step rule and
   uses the MC rules only when that move is blocked or when it is home (the deadlock
-  re-runs of :mod:`rfp_twin.planners.rerun`).
+  re-runs of :mod:`rfp_twin.planners.deadlocks.rerun`).
 
 Why a stepwise plan is collision-free in continuous time: every pair satisfies
 D > 2 sigma + MD at every step state (each mover is checked against its neighbours'
@@ -70,7 +70,7 @@ Where the helpers live (modules of :mod:`rfp_twin.planners.stepwise`):
 * ``mc_choice``: splitmix64 (``uniform``) and MC's choice (``mc_pick_free``,
   ``random_order``, ``mc_pick_sequential``);
 * ``state``: the state's allocation and initial values (``new_state``);
-* ``moves``: the scalar helpers (``_toward``, ``_rot``, ``_sign``, ``_reach_from_cos``);
+* ``moves``: the scalar helpers (``step_toward``, ``rotate_steps``, ``direction_sign``, ``segment_reach``);
 * here: :func:`run_stepwise` (scalar geometry broadcast to per-robot arrays),
   :func:`run_stepwise_arrays` (the compiled kernel), :func:`step_loop` and ``record``.
 
@@ -88,7 +88,7 @@ from numba import njit
 from rfp_twin.planners.stepwise.candidates import (any_move_passes, commit, fill_candidates,
                                                    sort_by_cost, try_cand)
 from rfp_twin.planners.stepwise.mc_choice import mc_pick_free, mc_pick_sequential, uniform
-from rfp_twin.planners.stepwise.moves import ANGLE_EPS, _sign, _toward
+from rfp_twin.planners.stepwise.moves import ANGLE_EPS, direction_sign, step_toward
 from rfp_twin.planners.stepwise.neighbours import (ENERGY_CUTOFF_MM, NEAR_HORIZON, encroached,
                                                    energy_gradient, free_window, refresh_near, woken)
 from rfp_twin.planners.stepwise.state import new_state
@@ -349,17 +349,17 @@ def step_loop(dest, movable, cur, limits, max_steps, greed, phobia, greedy, gree
             best = -1
             n_valid_moves = 0
             free = False
-            ka_best = _sign(da - ca)
-            kb_best = _sign(db - cb)
+            ka_best = direction_sign(da - ca)
+            kb_best = direction_sign(db - cb)
             if gc or (greedy_first[i] and not home[i]) or replayed:
                 # the obvious move (best step on each axis) has the least cost: try it first
                 if not replayed:
-                    cand[0, 0] = _toward(ca, da, ka_best, step_deg, a_lo, a_hi)
-                    cand[0, 1] = _toward(cb, db, kb_best, step_deg, b_lo, b_hi)
+                    cand[0, 0] = step_toward(ca, da, ka_best, step_deg, a_lo, a_hi)
+                    cand[0, 1] = step_toward(cb, db, kb_best, step_deg, b_lo, b_hi)
                 best = try_cand(cand, 0, i, ca, cb, bx, by, s1, md, True, arr, par, rs, near)
             if bf and best < 0:
                 da = dest[i, 0]
-                ka_best = _sign(da - ca)
+                ka_best = direction_sign(da - ca)
             if replayed:
                 if best < 0:
                     return -2, step      # the robots around it left its recorded move no room

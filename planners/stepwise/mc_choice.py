@@ -51,7 +51,7 @@ def mc_pick_free(rng_state, g, score_of):
     iff one of its k members passed its coin; members of a class are exchangeable.)
     So one draw suffices: the rank p of the first success of i.i.d. g-coins down the
     sorted scores, then a uniform member of the class holding rank p.
-    tests/planners/test_stepwise_kernel.py checks the kernel against the sequential rule.
+    tests/planners/stepwise/test_kernel.py checks the kernel against the sequential rule.
     """
     u = uniform(rng_state)
     f = 1.0 - g

@@ -51,7 +51,7 @@ def array_max_displacement(geom, step_deg: float) -> float:
 
 
 @njit(cache=True, inline="always")
-def _rot(c, s, k, cd, sd, c2d, s2d):
+def rotate_steps(c, s, k, cd, sd, c2d, s2d):
     """(cos, sin) of an angle rotated by k steps, k in -2..2."""
     if k == 0:
         return c, s
@@ -65,7 +65,7 @@ def _rot(c, s, k, cd, sd, c2d, s2d):
 
 
 @njit(cache=True, inline="always")
-def _toward(cur, dest, k, step, lo, hi):
+def step_toward(cur, dest, k, step, lo, hi):
     """Angle after a k-step move (k in -1, 0, 1) clipped to limits and to not overshoot."""
     nxt = cur + k * step
     if nxt < lo:
@@ -80,7 +80,7 @@ def _toward(cur, dest, k, step, lo, hi):
 
 
 @njit(cache=True, inline="always")
-def _sign(x):
+def direction_sign(x):
     """-1, 0 or 1: the direction of an angle difference x (deg), 0 within ANGLE_EPS."""
     if x > ANGLE_EPS:
         return 1
@@ -90,7 +90,7 @@ def _sign(x):
 
 
 @njit(cache=True, inline="always")
-def _reach_from_cos(l_alpha, s0, s1, cos_b):
+def segment_reach(l_alpha, s0, s1, cos_b):
     """Largest base distance of any point of the beta segment, from cos(beta), mm."""
     r1 = l_alpha * l_alpha + s1 * s1 + 2.0 * l_alpha * s1 * cos_b
     r0 = l_alpha * l_alpha + s0 * s0 + 2.0 * l_alpha * s0 * cos_b
@@ -98,7 +98,7 @@ def _reach_from_cos(l_alpha, s0, s1, cos_b):
 
 
 @njit(cache=True, inline="always")
-def _obstacle_distance(x0, y0, x1, y1, ax, ay, bx, by):
+def obstacle_distance(x0, y0, x1, y1, ax, ay, bx, by):
     """Distance from the beta segment (x0, y0)-(x1, y1) to the obstacle A-B, mm.
 
     A point obstacle (A == B, a fiducial) uses the point-to-segment distance, a segment

@@ -20,7 +20,7 @@ from __future__ import annotations
 from numba import njit
 
 from rfp_twin.models.geometry2d import segment_closest_sq, segment_distance
-from rfp_twin.planners.stepwise.moves import DEG, _obstacle_distance
+from rfp_twin.planners.stepwise.moves import DEG, obstacle_distance
 
 #: MC energy (Eq. 9) counts neighbours whose capsules may be nearer than this (mm).
 ENERGY_CUTOFF_MM = 12.0
@@ -107,7 +107,7 @@ def free_window(i, step, arr, par, rs, near):
     for k in range(fid_ptr[i], fid_ptr[i + 1]):
         f = fid_idx[k]
         th = bi + fid_buffer[f] + md
-        g = _obstacle_distance(seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3],
+        g = obstacle_distance(seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3],
                                fid_xy[f, 0], fid_xy[f, 1], fid_end_xy[f, 0], fid_end_xy[f, 1]) - th
         if g <= need:
             return 0

@@ -14,7 +14,7 @@ them into paths.
 A run may cover only some of the robots (``robots``): the neighbour and obstacle lists are
 cut to them, and robots outside are absent. Some of those may *replay* a recorded path
 (``script``) instead of planning: a region of the array re-planned inside a ring of
-robots that keep what they did (:mod:`rfp_twin.planners.rerun`).
+robots that keep what they did (:mod:`rfp_twin.planners.deadlocks.rerun`).
 
 Units: angles in deg, lengths in mm, time in planner steps (wall time in s).
 """

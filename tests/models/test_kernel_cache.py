@@ -7,9 +7,10 @@ import sys
 import numpy as np
 import pytest
 
-from rfp_twin.models.kernel_cache import cached_signatures, kernel_by_name, preload_cached
-from rfp_twin.planners.postprocess.timing.law import law_times
-from rfp_twin.twin.pipeline import DELIVER_KERNELS, PLANNER_KERNEL
+from rfp_twin.models.kernel_cache import (DELIVERY, cached_signatures, kernel_by_name,
+                                          preload_cached, warm_kernels, warm_up)
+from rfp_twin.planners.postprocess.timing.law import law_times, s_at_times
+from rfp_twin.twin.pipeline import PLANNER_KERNEL
 
 LAW_TIMES = "rfp_twin.planners.postprocess.timing.law:law_times"
 
@@ -29,10 +30,25 @@ def test_names_that_are_not_kernels_are_refused():
         kernel_by_name("rfp_twin.no_such_module:f")
 
 
-def test_every_kernel_the_pipeline_preloads_exists():
-    """A renamed kernel would silently stop being preloaded: the list must name kernels."""
-    for name in DELIVER_KERNELS + (PLANNER_KERNEL,):
-        assert kernel_by_name(name).py_func.__name__ == name.rpartition(":")[2]
+def test_the_pipeline_preloads_the_kernels_their_modules_register():
+    """Each module registers the kernels it calls from Python where they are defined: the
+    stage the pipeline preloads holds kernels only, the plan's paths, the post-processing's
+    and the 2D check's among them; the planner's kernel it waits for exists."""
+    from numba.core.registry import CPUDispatcher
+
+    kernels = warm_kernels(DELIVERY)
+    assert kernels and all(isinstance(k, CPUDispatcher) for k in kernels)
+    assert {"rfp_twin.planners.plan.result", "rfp_twin.planners.postprocess.timing.kernel",
+            "rfp_twin.planners.postprocess.smoothing", "rfp_twin.validation.checker2d.kernel",
+            "rfp_twin.models.kinematics"} <= {k.py_func.__module__ for k in kernels}
+    assert kernel_by_name(PLANNER_KERNEL).py_func.__name__ == PLANNER_KERNEL.rpartition(":")[2]
+
+
+def test_warm_up_keeps_the_order_given_and_each_kernel_once():
+    warm_up("test-stage", law_times, s_at_times)
+    warm_up("test-stage", law_times)
+    assert warm_kernels("test-stage") == (law_times, s_at_times)
+    assert warm_kernels("no-such-stage") == ()
 
 
 def test_a_fresh_process_gets_the_kernel_loaded_without_calling_it():

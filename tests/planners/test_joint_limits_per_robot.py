@@ -14,7 +14,7 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.layout.columns import fit_to_limits, robot_joint_limits
 from rfp_twin.models.robot import load_spec
 from rfp_twin.planners.stepwise import array_max_displacement, run_array
-from rfp_twin.planners.targets import check_angles, random_targets
+from rfp_twin.planners.plan.targets import check_angles, random_targets
 
 SPEC = load_spec("sdss-v")            # alpha [0, 360], beta [0, 360]
 STEP = 0.5
@@ -101,8 +101,8 @@ def test_the_stepwise_kernel_moves_within_the_robots_own_range(greed, phobia):
 
 
 def test_the_search_roadmap_uses_the_robots_own_range():
-    from rfp_twin.planners.resolve_search.paths import PathSet
-    from rfp_twin.planners.resolve_search.world import AlphaBetaWorld
+    from rfp_twin.planners.deadlocks.search.paths import PathSet
+    from rfp_twin.planners.deadlocks.search.world import AlphaBetaWorld
 
     fold = np.tile([10.0, 170.0], (7, 1))
     q = np.array([[-20.0, 365.0], [345.0, 100.0], [10.0, 5.0]])

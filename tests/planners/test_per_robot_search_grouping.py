@@ -1,4 +1,4 @@
-"""Per-robot geometry in the deadlock search (planners/resolve_search), its use by the
+"""Per-robot geometry in the deadlock search (planners/deadlocks/search), its use by the
 roadmap planners, and the post-processing's interaction grouping (planners/postprocess/timing/grouping.py).
 
 Each test builds a tiny layout whose ``extra`` columns give one robot its own alpha
@@ -23,7 +23,7 @@ from rfp_twin.models.geometry2d import DEG
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.planners.plan import REACHED, Plan
-from rfp_twin.planners.resolve_search import AlphaBetaWorld, PathSet, trim_tails
+from rfp_twin.planners.deadlocks.search import AlphaBetaWorld, PathSet, trim_tails
 from rfp_twin.planners.roadmap import ArmTrajectory
 from rfp_twin.planners.postprocess.timing.grouping import (_pair_clearance_below, interaction_pairs,
                                                pair_clearance)
@@ -128,7 +128,7 @@ def test_interaction_walk_bounds_the_speed_of_a_long_arm():
     assert wrong[0] >= margin
 
 
-# -- resolve_search: the world's black boxes and trim_tails -----------------------------------
+# -- the deadlock search: the world's black boxes and trim_tails -----------------------------------
 
 
 def _world(geom: ArrayGeometry, b_movable: bool) -> AlphaBetaWorld:

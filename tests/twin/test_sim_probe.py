@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from rfp_twin.models.kinds import load_kind
-from rfp_twin.planners.probe import plan_probe_arms, typical_scenario
+from rfp_twin.planners.roadmap.probe import plan_probe_arms, typical_scenario
 from rfp_twin.twin.sim.probe import simulate_probe_plan
 
 

@@ -49,7 +49,7 @@ class ProbeSimReport:
 
 
 def simulate_probe_plan(plan, *, settle_s: float = 1.0, duration_s: float | None = None) -> ProbeSimReport:
-    """Simulate ``plan`` (a successful :class:`rfp_twin.planners.probe.ProbePlan`) from its
+    """Simulate ``plan`` (a successful :class:`rfp_twin.planners.roadmap.probe.ProbePlan`) from its
     start to its end plus ``settle_s`` (or for ``duration_s``)."""
     clock = time.perf_counter()
     kind = plan.kind

@@ -65,6 +65,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
 from rfp_twin.validation.numerics import (STACK, beta_segment, interp_angle, max_rate, push,
                                  push_halves, segment_distance)
 
@@ -328,3 +329,7 @@ def check_pairs(pi, pj, pfx, pfy, pex, pey, thr, bx, by, la, s0, s1, rmax,
     pmin, ptmin, ns, hit = _scan_pairs(*args)
     coll = _record_pairs(np.flatnonzero(hit).astype(np.int64), *args)
     return pmin, ptmin, int(ns.sum()), coll
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, _scan_pairs, _record_pairs)

@@ -18,6 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
 from rfp_twin.planners.postprocess.smoothing import SmoothPath, eval_robot
 from rfp_twin.planners.postprocess.timing.kernel import QD_EPS
 
@@ -190,3 +191,7 @@ def _subdivide(k, curved, zone, grid_steps, straight_steps):
                 m += 1
         out[m - 1] = b
     return out[:m]
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, knot_grid)

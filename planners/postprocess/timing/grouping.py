@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit, prange
 
 from rfp_twin.models.geometry2d import DEG, beta_segment, segment_distance
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
 
 __all__ = ["interaction_pairs", "interaction_groups", "pair_clearance"]
 
@@ -185,3 +186,7 @@ def interaction_groups(n: int, edges: np.ndarray) -> np.ndarray:
     _, labels = connected_components(g, directed=False)
     return labels.astype(np.int64)
 
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, _pair_clearance_below)

@@ -38,6 +38,7 @@ import math
 import numpy as np
 from numba import njit
 
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
 from rfp_twin.planners.postprocess.timing.law import TimeLaw, law_times
 
 __all__ = ["SD_CAP", "QD_EPS", "topp_kernel", "topp", "law_excess"]
@@ -232,3 +233,7 @@ def law_excess(delta, qd, qdd, vmax, amax, x, sd_cap):
             a1 = abs(qd[i + 1, k] * u + qdd[i, k] * x[i + 1]) / amax[k]
             ra = max(ra, a0, a1)
     return rv, ra
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, topp_kernel)

@@ -22,6 +22,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
+
 __all__ = ["pl_kinematics"]
 
 
@@ -63,3 +65,7 @@ def pl_kinematics(t, y):
         if a > am:
             am = a
     return vm, am
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, pl_kinematics)

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from rfp_twin.models.kernel_cache import DELIVERY, warm_up
+
 __all__ = ["TimeLaw", "law_times"]
 
 
@@ -100,3 +102,7 @@ def law_times(s, x):
             t[i + 1] = np.inf
     return t
 
+
+
+# called from Python once the planner has run (loaded ahead from numba's cache)
+warm_up(DELIVERY, law_times, s_at_times)

@@ -17,7 +17,7 @@ SDSS = load_spec("sdss-v")
 DESI = load_spec("desi")
 
 # Seven SDSS-V robots (hex-7, pitch 22.4 mm, buffer 2.5 mm, segment model). Found by a
-# seeded search over 200 random problems (rfp_twin.planners.targets.random_targets, seed 99),
+# seeded search over 200 random problems (rfp_twin.planners.plan.targets.random_targets, seed 99),
 # rounded to 1e-3 deg. With the APF the centre robot (index 3) stalls 7.5 mm from its
 # target, blocked by robot 1, which itself stops 1.9 mm short of its own. With the
 # cooperative term robot 1 is pushed along robot 3's remaining error, steps past its

@@ -11,7 +11,7 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.planners.fields import (ApfSettings, apf_target_margin_mm, plan_apf, plan_apf_reconfiguration,
                           random_tip_configs)
 from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED
-from rfp_twin.planners.targets import random_targets
+from rfp_twin.planners.plan.targets import random_targets
 from tests.planners.fields.cases import DESI, SDSS, angles_for, custom_geom, desi_geom
 from rfp_twin.validation.checker2d import check_trajectory
 

@@ -10,9 +10,9 @@ from rfp_twin.models.errors import SpecError
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.planners.plan import REACHED
-from rfp_twin.planners.resolve_search import SearchResolveSettings
+from rfp_twin.planners.deadlocks.search import SearchResolveSettings
 from rfp_twin.planners.roadmap.array import roadmap_pass, travel_priority
-from rfp_twin.planners.solver import PlannerSettings, plan_reconfiguration
+from rfp_twin.planners.plan import PlannerSettings, plan_reconfiguration
 from rfp_twin.planners.stepwise import max_displacement
 from rfp_twin.models.trajectory import Trajectory
 from tests.planners.conftest import make_geom, plan_random

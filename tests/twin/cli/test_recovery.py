@@ -12,7 +12,7 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.stepwise.recovery import min_clearance
-from rfp_twin.planners.targets import random_targets
+from rfp_twin.planners.plan.targets import random_targets
 from rfp_twin.validation.checker2d import check_trajectory
 from tests.twin.cli.runner import run
 
