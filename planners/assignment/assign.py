@@ -243,7 +243,9 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
     degree = conflict_degrees(cands, pairs, geom.buffer, s.margin_mm)
     greedy_chosen, sweeps = greedy_assign(cands, catalogue.n_targets, nbr_ptr, nbr_idx,
                                           geom.buffer, s.margin_mm, allowed=allowed,
-                                          degree=degree, max_sweeps=s.max_sweeps)
+                                          degree=degree,
+                                          quotas=[(m, q) for m, q, _ in quota_rows],
+                                          max_sweeps=s.max_sweeps)
     t_greedy = time.perf_counter()
     stats = {"n_robots": geom.n_robots, "n_targets": catalogue.n_targets,
              "n_candidates": n_real, "n_neighbour_pairs": int(pairs.shape[0]),
