@@ -27,7 +27,7 @@ _LAZY = {
                      "apply_offline"), "rfp_twin.planners.plan"),
     "max_displacement": "rfp_twin.planners.stepwise",
     "array_max_displacement": "rfp_twin.planners.stepwise",
-    "SearchResolveSettings": "rfp_twin.planners.deadlocks.search",
+    "SearchResolveSettings": "rfp_twin.planners.roadmap.alpha_beta",
     "RoadmapSettings": "rfp_twin.planners.roadmap",
     **dict.fromkeys(("ApfSettings", "CapfSettings", "plan_apf", "plan_apf_reconfiguration",
                      "apf_target_margin_mm"), "rfp_twin.planners.fields"),
