@@ -4,6 +4,8 @@
   ``RESULTS_MAX_LINES`` lines, one row per benchmark in its "At a glance" table (figure,
   command, date, anchor), no cell longer than ``CELL_MAX_CHARS`` (a paragraph of past
   figures belongs in ``benchmarks/HISTORY.md``).
+- ``docs/DESIGN.md``'s "Where to find" table (behaviour -> module) names only paths that
+  exist.
 - No session labels ("S16", "this session") in code comments, docstrings and strings, in
   the README, the docs or RESULTS.md: say what the code does and why, and date a figure.
 
@@ -24,6 +26,7 @@ RESULTS = ROOT / "benchmarks" / "RESULTS.md"
 RESULTS_MAX_LINES = 400
 CELL_MAX_CHARS = 200
 GLANCE_HEADER = ["benchmark", "figure", "command", "measured", "anchor"]
+DESIGN = ROOT / "docs" / "DESIGN.md"
 
 #: Python files whose comments and strings are scanned (this file names the labels it bans).
 CODE_FOLDERS = ("models", "planners", "validation", "twin", "benchmarks", "tests")
@@ -62,17 +65,21 @@ def prose_of(path: Path) -> str:
     return "\n".join(tok.string for tok in tokens if tok.type in kinds)
 
 
+def table_rows(path: Path, heading: str) -> list[list[str]]:
+    """The table rows of the ``## heading`` section of a markdown file, as lists of
+    stripped cells (header first, separator rows dropped)."""
+    text = path.read_text(encoding="utf-8")
+    marker = f"\n## {heading}\n"
+    assert marker in text, f"{path.name} must have a '## {heading}' section"
+    section = text.split(marker, 1)[1].split("\n## ", 1)[0]
+    return [[c.strip() for c in line.strip()[1:-1].split(" | ")]
+            for line in section.splitlines()
+            if line.startswith("|") and not re.fullmatch(r"\|(?:\s*-+\s*\|)+", line)]
+
+
 def glance_rows() -> list[list[str]]:
-    """The rows of RESULTS.md's "At a glance" table, as lists of stripped cells (header
-    first, the separator dropped)."""
-    text = RESULTS.read_text(encoding="utf-8")
-    assert "\n## At a glance\n" in text, "RESULTS.md must open with an '## At a glance' table"
-    section = text.split("\n## At a glance\n", 1)[1].split("\n## ", 1)[0]
-    rows = []
-    for line in section.splitlines():
-        if line.startswith("|") and not re.fullmatch(r"\|(?:\s*-+\s*\|)+", line):
-            rows.append([c.strip() for c in line.strip()[1:-1].split(" | ")])
-    return rows
+    """The rows of RESULTS.md's "At a glance" table (header first)."""
+    return table_rows(RESULTS, "At a glance")
 
 
 def test_session_label_scan_finds_labels_and_passes_the_rest():
@@ -116,3 +123,17 @@ def test_no_session_labels_in_readme_and_docs():
     hits = {p.relative_to(ROOT).as_posix(): labels for p in files
             if (labels := session_labels(p.read_text(encoding="utf-8")))}
     assert hits == {}
+
+
+def test_design_where_to_find_names_existing_modules():
+    header, *rows = table_rows(DESIGN, "Where to find")
+    assert header == ["behaviour", "module"]
+    assert len(rows) >= 20
+    missing = {}
+    for behaviour, modules in rows:
+        paths = re.findall(r"`([^`]+)`", modules)
+        assert paths, f"{behaviour}: no module path"
+        gone = [p for p in paths if not (ROOT / p.rstrip("/")).exists()]
+        if gone:
+            missing[behaviour] = gone
+    assert missing == {}, "docs/DESIGN.md 'Where to find' names paths that do not exist"

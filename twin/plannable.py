@@ -69,7 +69,8 @@ def plan_catalogue(rc, catalogue: Catalogue, settings: AssignSettings, *, seed: 
     """Assign, plan, forbid what the plan lost, again (module docstring).
 
     rc : :class:`rfp_twin.twin.pipeline.Reconfiguration`; the assignment keeps the
-    planner's margin (``rc.target_margin_mm()``) beyond the buffer. With a stepwise
+    planner's margin (``rc.target_margin_mm()``) beyond the buffer, and offline robots
+    keep their poses (no target; the others clear them). With a stepwise
     planner, every round but the last first plans with the planner's first run only (no
     deadlock resolution, no post-processing: a fraction of a second): robots it leaves
     deadlocked lose their targets to the next round at once; a round whose first run
@@ -80,7 +81,9 @@ def plan_catalogue(rc, catalogue: Catalogue, settings: AssignSettings, *, seed: 
 
     forbidden = set(settings.forbidden)
     rounds: list[dict] = []
-    settings = replace(settings, margin_mm=max(settings.margin_mm, rc.target_margin_mm()))
+    settings = replace(settings, margin_mm=max(settings.margin_mm, rc.target_margin_mm()),
+                       fixed=tuple((int(r), float(a), float(b))
+                                   for r, (a, b) in sorted(rc.offline.items())))
     quick = (Reconfiguration(rc.geom, replace(rc.options, resolve="none"), offline=rc.offline)
              if rc.options.stepwise and rc.options.resolve != "none" else None)
     outcome = assignment = None

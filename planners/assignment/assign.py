@@ -86,6 +86,8 @@ class AssignSettings:
     margin_mm : clearance beyond the collision rule between final poses (and obstacles)
     quotas : minimum sky / standard fibers per region
     forbidden : (robot id, target id) pairs that may not be assigned
+    fixed : ((robot id, alpha, beta), ...) robots that do not move (offline): they keep
+        that pose, which the others' poses must clear
     max_sweeps : local-improvement sweeps of the heuristic
     """
 
@@ -96,6 +98,7 @@ class AssignSettings:
     margin_mm: float = 0.0
     quotas: Quotas = field(default_factory=Quotas)
     forbidden: frozenset = frozenset()
+    fixed: tuple = ()
     max_sweeps: int = 20
 
     def __post_init__(self) -> None:
@@ -220,7 +223,8 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
     s = settings or AssignSettings()
     t0 = time.perf_counter()
     cands = build_candidates(geom, catalogue, margin_mm=s.margin_mm, arms=s.arms,
-                             forbidden=set(s.forbidden) if s.forbidden else None)
+                             forbidden=set(s.forbidden) if s.forbidden else None,
+                             fixed={int(r): (float(a), float(b)) for r, a, b in s.fixed})
     n_real = int(np.count_nonzero(cands.target >= 0))
     if catalogue.n_targets and n_real == 0:
         raise AssignmentError(f"{catalogue.source}: none of its {catalogue.n_targets} targets is "

@@ -39,6 +39,9 @@ def assign(
     step: float = typer.Option(0.1, help="Angular step of the stepwise planner, deg: final "
                                "poses keep its margin (Sayres 2021 Eq. 7) beyond the buffer."),
     seed: int = typer.Option(0, help="Seed of a mock catalogue."),
+    offline: list[str] = typer.Option([], help="Offline robot: ID (parked folded) or "
+                                      "ID:ALPHA:BETA; it takes no target and the others clear "
+                                      "its pose; repeat or comma-separate."),
     telescope: str = typer.Option("auto", help="Plate scale and field for deg^2 densities and "
                                   "ra/dec: auto (SDSS-V layouts: apo, sdss-v-lco: lco) | apo "
                                   "(217.7358 mm/deg, 1.5 deg) | lco (330.275 mm/deg, 1.1 deg) "
@@ -71,7 +74,7 @@ def assign(
                                                 assignment_report, report_json,
                                                 write_assignment)
     from rfp_twin.twin.catalogue_source import load_catalogue, parse_centre, telescope_for
-    from rfp_twin.twin.cli.plan import parse_ids
+    from rfp_twin.twin.cli.plan import parse_ids, parse_offline
     from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
     from rfp_twin.twin.run_dir import check_output_folder
 
@@ -82,16 +85,21 @@ def assign(
     settings = AssignSettings(solver=solver, time_limit_s=time_limit, arms=parse_arms(arms),
                               quotas=Quotas(sky=sky_quota, standard=standard_quota,
                                             sectors=sectors))
+    still = parse_offline(offline, spec.fold_deg)
     rc = Reconfiguration.from_names(spec, layout_name, buffer_mm=buffer,
                                     fiducial_ids=parse_ids(fiducials, "--fiducials"),
-                                    options=PlanOptions(step_deg=step))
+                                    options=PlanOptions(step_deg=step), offline=still)
+    from rfp_twin.planners import apply_offline
+
+    apply_offline(rc.geom, still)       # unknown ids and angles out of range: one line
     tel = telescope_for(telescope, layout_name, spec.name)
     cat = load_catalogue(catalogue, rc.geom, telescope=tel,
                          field_centre=parse_centre(field_centre), seed=seed)
     margin = rc.target_margin_mm()
     from dataclasses import replace
 
-    settings = replace(settings, margin_mm=margin)
+    settings = replace(settings, margin_mm=margin,
+                       fixed=tuple((int(r), float(a), float(b)) for r, (a, b) in still.items()))
     result = run_assign(rc.geom, cat, settings)
     report = assignment_report(result, cat, settings=settings, layout_name=layout_name,
                                buffer_mm=rc.spec.buffer_mm, margin_mm=margin,

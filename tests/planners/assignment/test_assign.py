@@ -236,3 +236,22 @@ def test_dominated_poses_are_dropped_without_losing_the_optimum():
     assert with_presolve.status == without.status == "optimal"
     assert with_presolve.objective == pytest.approx(without.objective)
     assert_valid(geom, cat, with_presolve)
+
+
+def test_offline_robots_keep_their_pose_and_the_others_clear_it():
+    geom = hex_geom(19)
+    cat = covering_catalogue(geom, 3.0, seed=6)
+    free = assign(geom, cat, AssignSettings(solver="highs"))
+    busy = [int(geom.robot_ids[k]) for k in np.flatnonzero(free.target >= 0)[:2]]
+    fixed = ((busy[0], 200.0, 30.0), (busy[1], 10.0, 170.0))
+    a = assign(geom, cat, AssignSettings(solver="highs", fixed=fixed))
+    rows = [geom.layout.robot_index(r) for r in busy]
+    assert np.all(a.target[rows] == -1)
+    assert np.allclose(a.angles[rows], [[200.0, 30.0], [10.0, 170.0]])
+    assert_valid_except_parking(geom, a)
+
+
+def assert_valid_except_parking(geom, a):
+    taken = a.target[a.target >= 0]
+    assert taken.size == np.unique(taken).size
+    assert static_check(geom, a.angles, float(geom.buffer_mm)).ok
