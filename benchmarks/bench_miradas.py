@@ -10,8 +10,9 @@ unconstrained optimum, at most one start-stop cycle per arm).
 Part ``many``: target sets of 6-12 targets drawn in the field (final poses clear of
 each other, arms without a target parked), planned from park and chained (each set
 from the previous one's poses), with the paper's travel-time priorities, the same with
-the arms that stay still first, random ones, and travel-time with up to 8 re-plans
-(Sect. 2.1: the arm that failed goes first): success rate, makespan, start-stop cycles, checks and planning time beside the
+the arms that stay still first, random ones, travel-time with up to 8 re-plans (Sect.
+2.1: the arm that failed goes first), and those followed by a search over priorities
+(priority-based search, Ma et al. 2019) on what they leave: success rate, makespan, start-stop cycles, checks and planning time beside the
 paper's (Sect. 8: 97 % from park, makespan median 102.55 s, range 96-114 s; 93 %
 chained, median 90.6 s, max 108 s). Every plan found is passed through the independent
 check (rfp_twin.validation.probe) at buffer 0.
@@ -76,7 +77,13 @@ def typical(repeat: int) -> None:
     print("\n```\n" + plan.tables() + "\n```\n")
 
 
-def many(n_sets: int, seed: int, check_dt: float) -> None:
+#: Policies compared: name -> (priority, re-plans, search-tree nodes after them).
+ROWS = {"paper": ("travel-time", 0, 0), "still": ("still-first", 0, 0),
+        "random": ("random", 0, 0), "replans": ("travel-time", 8, 0),
+        "search": ("travel-time", 8, 24)}
+
+
+def many(n_sets: int, seed: int, check_dt: float, rows: list[str]) -> None:
     from rfp_twin.models.kinds import load_kind
     from rfp_twin.planners.roadmap.probe import ProbePlanSettings, plan_probe_arms, random_target_set
     from rfp_twin.validation.probe import check_probe_plan
@@ -96,9 +103,9 @@ def many(n_sets: int, seed: int, check_dt: float) -> None:
           "checks median | planning median / max (s) | 2D check | most passes |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for mode in ("park", "chained"):
-        for policy, replans in (("travel-time", 0), ("still-first", 0), ("random", 0),
-                                ("travel-time", 8)):
-            settings = ProbePlanSettings(priority=policy, replans=replans)
+        for name in rows:
+            policy, replans, nodes = ROWS[name]
+            settings = ProbePlanSettings(priority=policy, replans=replans, search_nodes=nodes)
             ok, spans, cycles, checks, secs, bad, passes = 0, [], 0, [], [], 0, 1
             pairs = [(park, g) for g in from_park] if mode == "park" else chain
             for k, (start, goal) in enumerate(pairs):
@@ -113,7 +120,8 @@ def many(n_sets: int, seed: int, check_dt: float) -> None:
                     rep = check_probe_plan(kind.spec, plan.breakpoints(), dt_s=check_dt,
                                            max_start_stop=settings.max_start_stop)
                     bad += not rep.ok
-            label = policy + (f", {replans} re-plans" if replans else "")
+            label = policy + (f", {replans} re-plans" if replans else "") + (
+                f", then search ({nodes} nodes)" if nodes else "")
             print(f"| {mode} | {label} | {ok}/{n_sets} = {100 * ok / n_sets:.1f} % | "
                   f"{np.median(spans):.1f} | {min(spans):.0f}-{max(spans):.0f} | {cycles} | "
                   f"{np.median(checks):.0f} | {np.median(secs):.3f} / {max(secs):.3f} | "
@@ -128,6 +136,8 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--sets", type=int, default=200)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--rows", nargs="+", choices=sorted(ROWS), default=list(ROWS),
+                    help="policies of the many-set part")
     ap.add_argument("--check-dt", type=float, default=0.01, help="2D check sample spacing, s")
     args = ap.parse_args()
     print(f"{machine_info('numba')}\n")
@@ -135,7 +145,7 @@ def main() -> None:
     if args.part in ("typical", "all"):
         typical(args.repeat)
     if args.part in ("many", "all"):
-        many(args.sets, args.seed, args.check_dt)
+        many(args.sets, args.seed, args.check_dt, args.rows)
 
 
 if __name__ == "__main__":

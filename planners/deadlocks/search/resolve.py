@@ -34,7 +34,7 @@ rfp_twin.planners.deadlocks.search.resolve). Whole-plan figures, with replacemen
 the search fails: benchmarks/RESULTS.md.
 
 The collision test on the step clock, and why the merged plan stays collision-free:
-:mod:`rfp_twin.planners.deadlocks.search.world`.
+:mod:`rfp_twin.planners.roadmap.alpha_beta.world`.
 
 Units: mm and degrees; the search runs on the step clock (time unit = one planner step,
 ``step_s`` seconds).
@@ -48,11 +48,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
-from rfp_twin.planners.deadlocks.search.paths import PathSet
-from rfp_twin.planners.deadlocks.search.settings import SearchResolveSettings
 from rfp_twin.planners.deadlocks.search.trim import trim_tails
-from rfp_twin.planners.deadlocks.search.world import AlphaBetaWorld
 from rfp_twin.planners.roadmap import Arm, ArmTrajectory, priority_search
+from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
+from rfp_twin.planners.roadmap.alpha_beta.settings import SearchResolveSettings
+from rfp_twin.planners.roadmap.alpha_beta.world import AlphaBetaWorld
 
 
 @dataclass

@@ -86,7 +86,9 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
     -------
     ProbePlan: per-arm rows (Tables 1-2) of the last pass and, when every arm got one,
     trajectories. With ``settings.replans`` > 0 a failed pass is followed by another with
-    the arm that failed first in the order (Sect. 2.1), at most that many times.
+    the arm that failed first in the order (Sect. 2.1), at most that many times; with
+    ``settings.search_nodes`` > 0, what they leave unsolved goes to a search over the
+    priorities (:func:`rfp_twin.planners.roadmap.probe.search.search_priorities`).
     """
     require_kind(kind.name, SUPPORTED_KINDS, "the probe-arm prioritized planner")
     s = settings or ProbePlanSettings()
@@ -108,6 +110,16 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
         plan = _one_pass(kind, start, goal, s, order, rng)
         passes += 1
         checks += plan.checks
+    if not plan.success and s.search_nodes:
+        # what prioritized passes cannot solve: search the priorities themselves
+        from rfp_twin.planners.roadmap.probe.search import search_priorities
+
+        found = search_priorities(kind, start, goal, s, rng, s.search_nodes, roadmap_settings(s),
+                                  travel_times(kind, start, goal))
+        passes += 1
+        checks += found.checks
+        if found.success:
+            plan = found
     plan.passes, plan.all_checks, plan.seconds = passes, checks, time.perf_counter() - clock
     return plan
 

@@ -40,6 +40,8 @@ class ProbePlanSettings:
     replans : int, passes after a failed one, each with the arm that failed first in the
         order (Sect. 2.1: "replanning with a different arm-priority scheme"); 0 = the one
         pass of the paper's experiments (Sect. 8)
+    search_nodes : int, when the passes fail: priority-based search (Ma et al. 2019) with
+        at most this many search-tree nodes (0: none, the paper's planner)
     priority : "travel-time" (Sect. 7) | "still-first" | "random" (:data:`PRIORITIES`)
     """
 
@@ -53,6 +55,7 @@ class ProbePlanSettings:
     horizon_s: float = 120.0
     priority: str = "travel-time"
     replans: int = 0
+    search_nodes: int = 0
 
     def __post_init__(self) -> None:
         where = "ProbePlanSettings"
@@ -72,5 +75,8 @@ class ProbePlanSettings:
             raise field_error(SpecError, "n_random_edges", self.n_random_edges, ">= 0", where)
         if not isinstance(self.replans, int) or self.replans < 0:
             raise field_error(SpecError, "replans", self.replans, "an integer >= 0", where)
+        if not isinstance(self.search_nodes, int) or self.search_nodes < 0:
+            raise field_error(SpecError, "search_nodes", self.search_nodes, "an integer >= 0",
+                              where)
         if self.priority not in PRIORITIES:
             raise field_error(SpecError, "priority", self.priority, ", ".join(PRIORITIES), where)

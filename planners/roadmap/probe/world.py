@@ -147,6 +147,19 @@ def arm_gaps(q, i, links, sizes, frames, pad):
     return out
 
 
+@njit(cache=True)
+def trajectories_touch(caps_a, circ_a, caps_b, circ_b, pad):
+    """Do two sampled arms touch at some tick? ``caps_*`` (T, 5, 5), ``circ_*`` (T, 3) as
+    :func:`sample_world` returns them (same clock)."""
+    for i in range(caps_a.shape[0]):
+        if math.hypot(circ_a[i, 0] - circ_b[i, 0], circ_a[i, 1] - circ_b[i, 1]) > \
+                circ_a[i, 2] + circ_b[i, 2] + pad:
+            continue
+        if _pair_min_gap(caps_a[i], caps_b[i], pad) <= 0.0:
+            return True
+    return False
+
+
 class ObstacleTime:
     """The arms planned so far, sampled on the ``dt_col`` clock up to ``horizon_s``."""
 
@@ -160,12 +173,19 @@ class ObstacleTime:
         self.circ = np.empty((self.n_ticks, 0, 3))
         self.members: list[int] = []
 
+    def sample(self, arm: int, times: np.ndarray, configs: np.ndarray):
+        """Arm ``arm`` along breakpoints ``times`` (k,) s, ``configs`` (k, 2) deg on this
+        set's clock: ``(caps (n_ticks, 5, 5), circ (n_ticks, 3))``."""
+        return sample_world(np.ascontiguousarray(times, dtype=np.float64),
+                            np.ascontiguousarray(configs, dtype=np.float64), self.n_ticks,
+                            self.dt_col, self.kind.links, self.kind.sizes, self.frames[arm])
+
     def add(self, arm: int, times: np.ndarray, configs: np.ndarray) -> None:
         """Add arm ``arm`` moving along breakpoints ``times`` (k,) s, ``configs`` (k, 2) deg."""
-        caps, circ = sample_world(np.ascontiguousarray(times, dtype=np.float64),
-                                  np.ascontiguousarray(configs, dtype=np.float64), self.n_ticks,
-                                  self.dt_col, self.kind.links, self.kind.sizes,
-                                  self.frames[arm])
+        self.add_sampled(arm, *self.sample(arm, times, configs))
+
+    def add_sampled(self, arm: int, caps: np.ndarray, circ: np.ndarray) -> None:
+        """Add arm ``arm`` already sampled by :meth:`sample`."""
         self.obs = np.ascontiguousarray(np.concatenate([self.obs, caps[:, None]], axis=1))
         self.circ = np.ascontiguousarray(np.concatenate([self.circ, circ[:, None]], axis=1))
         self.members.append(arm)

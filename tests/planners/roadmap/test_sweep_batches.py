@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 import rfp_twin.planners.roadmap.sweep_batches as batches
-from rfp_twin.planners.deadlocks.search.paths import PathSet
-from rfp_twin.planners.deadlocks.search.settings import SearchResolveSettings
-from rfp_twin.planners.deadlocks.search.world import AlphaBetaWorld
+from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
+from rfp_twin.planners.roadmap.alpha_beta.settings import SearchResolveSettings
+from rfp_twin.planners.roadmap.alpha_beta.world import AlphaBetaWorld
 from rfp_twin.planners.roadmap import plan_arm
 from rfp_twin.planners.roadmap.arm import compress_breakpoints
-from tests.planners.deadlocks.search.test_world import _hex7_folded
+from tests.planners.roadmap.alpha_beta.test_world import _hex7_folded
 
 
 def _world(stays: bool):
@@ -113,7 +113,7 @@ def test_edges_checked_together_get_the_answers_of_one_at_a_time():
     same answer per edge as sampling it (``_edge_samples``) and asking ``forbidden``,
     with a parked neighbour as a static obstacle and edges past the joint limits."""
     from rfp_twin.planners.roadmap.graph import EdgeFeasibility, _edge_samples
-    from tests.planners.deadlocks.search.test_world import intrusion
+    from tests.planners.roadmap.alpha_beta.test_world import intrusion
 
     geom, md, c, right, reach, fold, paths = intrusion()
     paths.steps[right], paths.angles[right] = np.array([0.0]), reach[None, :]   # parked there

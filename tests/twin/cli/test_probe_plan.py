@@ -47,3 +47,26 @@ def test_export_reloads_in_mujoco(tmp_path):
     assert r.exit_code == 0, r.output
     m = mujoco.MjModel.from_xml_path(str(tmp_path / "m" / "rfp-twin.xml"))
     assert (m.neq, m.nu) == (6, 12)
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ("ds1_mm = 100.0", "ds1_mm = 270.0", ["'park_deg'", "ZoA", "allowed"]),
+    ("d12_mm = 200.0", "d12_mm = 150.0", ["'d12_mm'", "allowed: > d13_mm + d24_mm"]),
+])
+def test_bad_probe_preset_exits_2_in_one_line(tmp_path, old, new, words):
+    from importlib import resources
+
+    from rfp_twin.models.kinds.bench import MIRADAS_PRESET
+
+    text = (resources.files("rfp_twin.models") / "presets" / f"{MIRADAS_PRESET}.toml").read_text()
+    assert old in text
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace(old, new))
+    out = tmp_path / "run"
+    r = CliRunner().invoke(app, ["plan", "--preset", str(bad), "--algorithm", "roadmap",
+                                 "--out", str(out)])
+    assert r.exit_code == 2, r.output
+    lines = [ln for ln in r.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:") and str(bad) in lines[0]
+    assert all(w in lines[0] for w in words), lines[0]
+    assert not out.exists()

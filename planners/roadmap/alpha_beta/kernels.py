@@ -1,7 +1,7 @@
 """Numba kernels of the search's collision tests: beta segments along a path and the
 step rule (Sayres 2021 Eqs. 6-7) against moving obstacles, static obstacles and points.
 
-:class:`rfp_twin.planners.deadlocks.search.world.AlphaBetaWorld` builds the obstacle tables and
+:class:`rfp_twin.planners.roadmap.alpha_beta.world.AlphaBetaWorld` builds the obstacle tables and
 calls these in its ``collides`` / ``forbidden`` black boxes; :func:`pair_conflict`
 also serves :func:`rfp_twin.planners.deadlocks.search.trim.trim_tails`.
 
