@@ -39,7 +39,7 @@ pipeline's independent 2D check looks at the result as at any plan.
 
 The re-runs come before the state-time search because they untangle most groups in a
 fraction of its time and without lengthening the fold, where the search's plans often
-do (benchmarks/HISTORY.md, "Code comments": rfp_twin.planners.deadlocks.rerun).
+do (benchmarks/HISTORY.md, "Code comments", under the former path planners/rerun.py).
 :class:`RerunResolver` is the strategy of the chain (greedy plans, before the search).
 
 Units: planner steps; wall time in s.
