@@ -12,8 +12,8 @@ A layout with fiber columns (a calibrated SDSS-V instrument) uses each robot's o
 and APOGEE fibers (a robot of a ``Boss`` hole has no APOGEE fiber); a layout without them
 has one fiber per robot at the spec's ``beta_length_mm`` that serves every target.
 
-Inverse kinematics as :func:`rfp_twin.models.kinematics.inverse_fiber` (each robot's own
-alpha arm and fiber, Sayres 2021 Eqs. 1-2), vectorised over all (robot, target) pairs.
+Inverse kinematics: :func:`rfp_twin.models.kinematics.inverse_fiber` (each robot's own
+alpha arm and fiber, Sayres 2021 Eqs. 1-2) on all (robot, target) pairs within reach.
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ from scipy.spatial import cKDTree
 
 from rfp_twin.models.catalogue import ANY, APOGEE, BOSS, Catalogue
 from rfp_twin.models.geometry2d import beta_segment, segment_distance
-from rfp_twin.models.kinematics import fiber_polar
+from rfp_twin.models.kinematics import fiber_polar, inverse_fiber
 from rfp_twin.models.layout.columns import FIBER_COLUMNS, fit_to_limits, robot_fibers
 
 #: Arm codes of a candidate.
@@ -100,21 +100,26 @@ def parking_angles(geom) -> np.ndarray:
     return fit_to_limits(fold, geom.limits)[0]
 
 
-def _solve(rel: np.ndarray, la: np.ndarray, length: np.ndarray, phi: np.ndarray,
-           left: bool) -> tuple[np.ndarray, np.ndarray]:
-    """(angles (k, 2) deg, ok (k,) bool): model angles putting a fiber (``length``, ``phi``
-    deg off the beta arm's axis) at ``rel`` (k, 2) mm from the base, one arm."""
-    r2 = np.einsum("ij,ij->i", rel, rel)
-    c = (r2 - la * la - length * length) / (2.0 * la * length)
-    ok = np.abs(c) <= 1.0 + 1e-12
+#: A left-armed pose is a candidate only this far (mm) inside the rim of the patrol annulus:
+#: at the rim both arm solutions are the same pose.
+RIM_MM = 1e-9
+
+
+def _solve(base: np.ndarray, xy: np.ndarray, la: np.ndarray, fiber_xy: np.ndarray,
+           length: np.ndarray, left: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(angles (k, 2) deg, ok (k,) bool): model angles putting a fiber (``fiber_xy`` (k, 2)
+    mm in the beta-arm frame, ``length`` (k,) mm from the beta axis) on ``xy`` (k, 2) from
+    bases ``base`` (k, 2) with alpha arms ``la`` (k,), one arm; rows out of reach are not
+    ok (their angles 0). The kinematics is
+    :func:`rfp_twin.models.kinematics.inverse_fiber` on the reachable rows."""
+    r = np.hypot(xy[:, 0] - base[:, 0], xy[:, 1] - base[:, 1])
+    lo, hi = np.abs(la - length), la + length
+    ok = (r >= lo) & (r <= hi)
     if left:
-        ok &= np.abs(c) < 1.0 - 1e-12     # at the rim both arms are the same pose
-    c = np.clip(c, -1.0, 1.0)
-    beta = np.arccos(c) * (-1.0 if left else 1.0)
-    alpha = np.arctan2(rel[:, 1], rel[:, 0]) - np.arctan2(length * np.sin(beta),
-                                                          la + length * np.cos(beta))
-    out = np.column_stack([np.degrees(alpha) % 360.0, (np.degrees(beta) - phi) % 360.0])
-    out[out >= 360.0] = 0.0
+        ok &= (r > lo + RIM_MM) & (r < hi - RIM_MM)
+    out = np.zeros((xy.shape[0], 2))
+    if ok.any():
+        out[ok] = inverse_fiber(base[ok], xy[ok], la[ok], fiber_xy[ok], right_arm=not left)
     return out, ok
 
 
@@ -170,8 +175,7 @@ def build_candidates(geom, catalogue: Catalogue, *, margin_mm: float = 0.0,
     generic = bool(np.all(np.isnan(slots[:, 1, 0])) and not any(
         c in geom.layout.extra for c in FIBER_COLUMNS["boss"]))
     accepts = _slot_accepts(generic)
-    length, phi = fiber_polar(slots.reshape(-1, 2))
-    length, phi = length.reshape(n, 2), phi.reshape(n, 2)
+    length = fiber_polar(slots.reshape(-1, 2))[0].reshape(n, 2)
     la = geom.alpha_len
     reach = float(np.nanmax(la[:, None] + length)) if n else 0.0
 
@@ -199,10 +203,10 @@ def build_candidates(geom, catalogue: Catalogue, *, margin_mm: float = 0.0,
     for s in range(2):
         keep = accepts[catalogue.fiber[pairs_t], s] & np.isfinite(length[pairs_r, s])
         r_s, t_s = pairs_r[keep], pairs_t[keep]
-        rel = catalogue.xy[t_s] - geom.base_xy[r_s]
         for arm in arms:
             left = arm == "left"
-            ang, ok = _solve(rel, la[r_s], length[r_s, s], phi[r_s, s], left)
+            ang, ok = _solve(geom.base_xy[r_s], catalogue.xy[t_s], la[r_s], slots[r_s, s],
+                             length[r_s, s], left)
             ang, inside = fit_to_limits(ang, geom.limits[r_s])
             ok &= inside
             parts.append((r_s[ok], t_s[ok], ang[ok], np.full(int(ok.sum()), LEFT if left else RIGHT,

@@ -12,7 +12,7 @@ import numpy as np
 from rfp_twin.models.errors import SpecError
 
 if TYPE_CHECKING:
-    from rfp_twin.planners.deadlocks.search import SearchResolveSettings
+    from rfp_twin.planners.roadmap.alpha_beta import SearchResolveSettings
 
 ALGORITHMS = ("greedy", "markov", "roadmap")
 DIRECTIONS = ("reverse", "forward")
@@ -24,7 +24,7 @@ class PlannerSettings:
     """Parameters of one planning job.
 
     algorithm : "greedy" | "markov" (the stepwise kernel) | "roadmap" (Sabater's
-    prioritized planner on every robot, :mod:`rfp_twin.planners.roadmap.array`); step_deg :
+    prioritized planner on every robot, :mod:`rfp_twin.planners.roadmap.alpha_beta.array`); step_deg :
     angular step (deg); greed, phobia : MC parameters in [0, 1]; direction : "reverse" |
     "forward"; max_steps : step limit (default 1000 deg / step, as in the paper);
     max_rounds : deadlock-resolution rounds.
