@@ -10,7 +10,7 @@ Planners, all from the folded state to the same targets:
 - ``greedy/search``: the same with the state-time search that keeps targets;
 - ``markov/search``: MC (greed 0.9, phobia 0.3) with the search;
 - ``roadmap/search``: Sabater 2018's prioritized state-time planner on every robot
-  (:mod:`rfp_twin.planners.roadmap.array`), robots it leaves stuck re-planned by the group search;
+  (:mod:`rfp_twin.planners.roadmap.alpha_beta.array`), robots it leaves stuck re-planned by the group search;
 - ``apf`` / ``capf``: Makarem 2014 / Macktoobian 2019 fields on the beta capsules
   (segment model, gain 1, lambda3 0.03), direct fold -> targets, no resolution.
 

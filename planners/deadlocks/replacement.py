@@ -13,22 +13,19 @@ Units: deg; md in mm; time in planner steps.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable
+from typing import Callable
 
 import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import TargetError
-from rfp_twin.planners.deadlocks.resolver import Round
+from rfp_twin.planners.deadlocks.resolver import Round, SearchedPlan
 from rfp_twin.planners.plan.settings import PlannerSettings
 from rfp_twin.planners.plan.targets import random_targets
 
-if TYPE_CHECKING:
-    from rfp_twin.planners.deadlocks.search import SearchOutcome
-
 #: The search of the replaced groups in place: (round, old targets (n, 2), new targets
-#: (n, 2), start (n, 2), goal (n, 2) deg) -> the search's outcome.
-SearchAgain = Callable[[Round, np.ndarray, np.ndarray, np.ndarray, np.ndarray], "SearchOutcome"]
+#: (n, 2), start (n, 2), goal (n, 2) deg) -> the plan as it left it.
+SearchAgain = Callable[[Round, np.ndarray, np.ndarray, np.ndarray, np.ndarray], SearchedPlan]
 
 
 @dataclass(frozen=True)

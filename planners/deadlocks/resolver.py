@@ -14,7 +14,7 @@ Units: angles in deg, lengths in mm, time in planner steps; wall time in s.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -22,10 +22,30 @@ from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.planners.deadlocks.groups import deadlocked_groups, stuck_mask
 from rfp_twin.planners.plan.result import build_paths
 from rfp_twin.planners.plan.settings import PlannerSettings
+from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
 from rfp_twin.planners.stepwise import StepRun
 
-if TYPE_CHECKING:
-    from rfp_twin.planners.deadlocks.search import SearchOutcome
+
+class GroupOutcome(Protocol):
+    """One group as a search left it."""
+
+    success: bool
+
+
+class SearchedPlan(Protocol):
+    """The plan as a search of its groups left it
+    (:class:`rfp_twin.planners.deadlocks.search.SearchOutcome`): every robot's path on the
+    step clock (``paths``, planning frame), the plan's length ``n_steps``, one outcome per
+    group searched (``groups``), the search's wall time (``seconds``)."""
+
+    paths: PathSet
+    n_steps: int
+    groups: list[GroupOutcome]
+    seconds: float
+
+    @property
+    def resolved_robots(self) -> np.ndarray:
+        """(k,) int64, the deadlocked robots whose groups the search resolved."""
 
 
 @dataclass
@@ -65,7 +85,7 @@ class Round:
     run: StepRun
     stuck: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     groups: list = field(default_factory=list)
-    search: SearchOutcome | None = None
+    search: SearchedPlan | None = None
     hardest: list = field(default_factory=list)
     partial: bool = False
 

@@ -4,7 +4,7 @@ GC/MC (greedy, markov; Sayres 2021), MDP2 (SDSS-V's production generator) and th
 Macktoobian 2019) are written for alpha/beta positioners; the prioritized state-time
 search on roadmaps (roadmap; Sabater 2018) reaches the robot only through
 ``forbidden(q)`` and ``collides(q, t)`` and runs on every kind (alpha/beta arrays through
-:mod:`rfp_twin.planners.roadmap.array`, probe arms through :mod:`rfp_twin.planners.roadmap.probe`).
+:mod:`rfp_twin.planners.roadmap.alpha_beta.array`, probe arms through :mod:`rfp_twin.planners.roadmap.probe`).
 """
 from __future__ import annotations
 

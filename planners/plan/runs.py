@@ -3,7 +3,7 @@
 The stepwise kernel (:func:`rfp_twin.planners.stepwise.run_array`, greedy or Markov),
 MDP2 (:func:`rfp_twin.planners.stepwise.mdp2_run.run_mdp2`, its tries in one run), or
 for ``algorithm="roadmap"`` one prioritized roadmap pass
-(:func:`rfp_twin.planners.roadmap.array.roadmap_pass`), as a
+(:func:`rfp_twin.planners.roadmap.alpha_beta.array.roadmap_pass`), as a
 :class:`rfp_twin.planners.stepwise.StepRun` in the planning frame. The driver makes the
 first run of each round with it; deadlock strategies that run the array again are handed
 it.
@@ -54,10 +54,10 @@ def beta_first_robots(start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
 
 def run_roadmap(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
                 settings: PlannerSettings, md: float, seed: int) -> StepRun:
-    """A roadmap pass (:func:`rfp_twin.planners.roadmap.array.roadmap_pass`) as a StepRun;
+    """A roadmap pass (:func:`rfp_twin.planners.roadmap.alpha_beta.array.roadmap_pass`) as a StepRun;
     ``md`` mm, the step rule's margin."""
-    from rfp_twin.planners.deadlocks.search import SearchResolveSettings
-    from rfp_twin.planners.roadmap.array import roadmap_pass
+    from rfp_twin.planners.roadmap.alpha_beta import SearchResolveSettings
+    from rfp_twin.planners.roadmap.alpha_beta.array import roadmap_pass
 
     res = roadmap_pass(geom, start, dest, movable, md, settings.step_deg,
                        settings.search or SearchResolveSettings(), np.random.default_rng(seed))

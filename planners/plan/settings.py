@@ -12,7 +12,7 @@ import numpy as np
 from rfp_twin.models.errors import SpecError
 
 if TYPE_CHECKING:
-    from rfp_twin.planners.deadlocks.search import SearchResolveSettings
+    from rfp_twin.planners.roadmap.alpha_beta import SearchResolveSettings
 
 ALGORITHMS = ("greedy", "markov", "mdp2", "roadmap")
 #: (greed, phobia) when not given: the paper's MC setting for markov, SDSS-V's production
@@ -28,9 +28,9 @@ class PlannerSettings:
 
     algorithm : "greedy" | "markov" (the stepwise kernel) | "mdp2" (SDSS-V's production
     generator, :mod:`rfp_twin.planners.stepwise.mdp2`) | "roadmap" (Sabater's
-    prioritized planner on every robot, :mod:`rfp_twin.planners.roadmap.array`); step_deg :
-    angular step (deg); greed, phobia : MC / MDP2 parameters in [0, 1] (None: markov 0.9 /
-    0.3, mdp2 0.7 / 0.6); tries : mdp2's tries (>= 1); direction : "reverse" |
+    prioritized planner on every robot, :mod:`rfp_twin.planners.roadmap.alpha_beta.array`);
+    step_deg : angular step (deg); greed, phobia : MC / MDP2 parameters in [0, 1] (None:
+    markov 0.9 / 0.3, mdp2 0.7 / 0.6); tries : mdp2's tries (>= 1); direction : "reverse" |
     "forward"; max_steps : step limit (default 1000 deg / step, as in the paper);
     max_rounds : deadlock-resolution rounds.
     resolve : "search" (re-plan each deadlocked group with the state-time search of

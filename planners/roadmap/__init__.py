@@ -14,9 +14,11 @@ Modules: :mod:`~rfp_twin.planners.roadmap.arm` (inputs, settings, outputs),
 (depth-first state-time search, Sect. 6.4, Algorithms 3-6),
 :mod:`~rfp_twin.planners.roadmap.sweep` (the same graph, one time layer at a time),
 :mod:`~rfp_twin.planners.roadmap.planner` (one arm, Algorithm 2), :mod:`~rfp_twin.planners.roadmap.priority`
-(many arms: search over priorities), :mod:`~rfp_twin.planners.roadmap.array` (every robot
-of an alpha/beta array: ``PlannerSettings(algorithm="roadmap")``; imported by its module
-path).
+(many arms: search over priorities). Its robots, each a subpackage imported by its path:
+:mod:`~rfp_twin.planners.roadmap.alpha_beta` (alpha/beta arrays on the stepwise planners'
+step clock: the robot's black boxes among the others' paths, shared with the deadlock
+search, and every robot planned, ``PlannerSettings(algorithm="roadmap")``) and
+:mod:`~rfp_twin.planners.roadmap.probe` (MIRADAS probe arms).
 """
 from rfp_twin.planners.roadmap.arm import Arm, ArmTrajectory, RoadmapSettings, SearchStats
 from rfp_twin.planners.roadmap.graph import Roadmap, build_roadmap, edge_time

@@ -55,16 +55,16 @@ class Arm:
         with ``collides`` inside it (same queries, same result, no Python per layer):
         ``sweep(Q, D, frac, k_static, k_max, t0, dt, goal_after, nodes_left) -> (outcome
         0 found / 1 failed / 2 budget, k_end, came (k_end, P + 1) int8, nodes, checks)``,
-        indices -1 for none (:func:`rfp_twin.planners.deadlocks.search.kernels.sweep_layers`)
+        indices -1 for none (:func:`rfp_twin.planners.roadmap.alpha_beta.kernels.sweep_layers`)
     sweep_paths : callable or None, ``sweep`` on several paths in one call, stopping at
         the first that finds the goal, for the batched loop of
         :mod:`rfp_twin.planners.roadmap.sweep_batches` (needs ``sweep``, with the
         blocker counts it adds to as its ``hits`` attribute):
         ``sweep_paths(Qs, Ds, q_ptr, frac, k_static, k_maxs, t0, dt, goal_after,
-        nodes_left, hits, stop)`` (:func:`rfp_twin.planners.deadlocks.search.kernels.sweep_paths`)
+        nodes_left, hits, stop)`` (:func:`rfp_twin.planners.roadmap.alpha_beta.kernels.sweep_paths`)
     edges_forbidden : callable or None, ``forbidden`` along many straight edges in one
         call: ``edges_forbidden(q0s (E, d), q1s (E, d), step (d,)) -> (any point forbidden
-        (E,) bool, points (E,) int)``, the points as :func:`rfp_twin.planners.roadmap.graph._edge_samples`
+        (E,) bool, points (E,) int)``, the points as :func:`rfp_twin.planners.roadmap.graph.edge_samples`
         places them
     edge_memo : dict or None, where :func:`rfp_twin.planners.roadmap.plan_arm` keeps which
         straight edges avoid ``forbidden``: arms that share one ``forbidden`` (the same

@@ -101,8 +101,8 @@ def test_the_stepwise_kernel_moves_within_the_robots_own_range(greed, phobia):
 
 
 def test_the_search_roadmap_uses_the_robots_own_range():
-    from rfp_twin.planners.deadlocks.search.paths import PathSet
-    from rfp_twin.planners.deadlocks.search.world import AlphaBetaWorld
+    from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
+    from rfp_twin.planners.roadmap.alpha_beta.world import AlphaBetaWorld
 
     fold = np.tile([10.0, 170.0], (7, 1))
     q = np.array([[-20.0, 365.0], [345.0, 100.0], [10.0, 5.0]])

@@ -29,12 +29,12 @@ deadlocked robot goes from its target, at step 0, to the folded state):
   post-processing smooths them.
 
 Recruiting the blocking neighbours and searching over priorities each raise the share
-of groups resolved over Sabater's fixed order (benchmarks/HISTORY.md, "Code comments":
-rfp_twin.planners.deadlocks.search.resolve). Whole-plan figures, with replacement where
+of groups resolved over Sabater's fixed order (benchmarks/HISTORY.md, "Code comments",
+under the module's former path planners/resolve_search/resolve.py). Whole-plan figures, with replacement where
 the search fails: benchmarks/RESULTS.md.
 
 The collision test on the step clock, and why the merged plan stays collision-free:
-:mod:`rfp_twin.planners.deadlocks.search.world`.
+:mod:`rfp_twin.planners.roadmap.alpha_beta.world`.
 
 Units: mm and degrees; the search runs on the step clock (time unit = one planner step,
 ``step_s`` seconds).
@@ -48,11 +48,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
-from rfp_twin.planners.deadlocks.search.paths import PathSet
-from rfp_twin.planners.deadlocks.search.settings import SearchResolveSettings
 from rfp_twin.planners.deadlocks.search.trim import trim_tails
-from rfp_twin.planners.deadlocks.search.world import AlphaBetaWorld
 from rfp_twin.planners.roadmap import Arm, ArmTrajectory, priority_search
+from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
+from rfp_twin.planners.roadmap.alpha_beta.settings import SearchResolveSettings
+from rfp_twin.planners.roadmap.alpha_beta.world import AlphaBetaWorld
 
 
 @dataclass

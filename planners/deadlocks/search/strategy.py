@@ -15,10 +15,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from rfp_twin.planners.deadlocks.resolver import Round
-from rfp_twin.planners.deadlocks.search.paths import PathSet
 from rfp_twin.planners.deadlocks.search.resolve import GroupResult, SearchOutcome, resolve_groups
-from rfp_twin.planners.deadlocks.search.settings import SearchResolveSettings
 from rfp_twin.planners.plan.settings import PlannerSettings
+from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
+from rfp_twin.planners.roadmap.alpha_beta.settings import SearchResolveSettings
 
 
 @dataclass(frozen=True)

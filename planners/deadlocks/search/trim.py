@@ -17,7 +17,7 @@ from numba import njit
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.geometry2d import DEG, beta_segment, segment_distance, segments_within
-from rfp_twin.planners.deadlocks.search.paths import PathSet
+from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
 
 
 def trim_tails(geom: ArrayGeometry, paths: PathSet, dest: np.ndarray, skip: np.ndarray,

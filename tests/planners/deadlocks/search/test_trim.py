@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from rfp_twin.models.kinematics import inverse
-from rfp_twin.planners.deadlocks.search.paths import PathSet
+from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
 from rfp_twin.planners.deadlocks.search.trim import trim_tails
 from rfp_twin.planners.stepwise import max_displacement
 from tests.planners.conftest import make_geom
@@ -52,7 +52,7 @@ def test_skipping_far_configurations_gives_the_every_step_answer():
     does; the thresholds lie around each motion's closest approach, so both answers
     come often (and the test fails if the skips are tripled)."""
     from rfp_twin.models.geometry2d import beta_segment
-    from rfp_twin.planners.deadlocks.search.kernels import pair_conflict, segments_at
+    from rfp_twin.planners.roadmap.alpha_beta.kernels import pair_conflict, segments_at
     from rfp_twin.planners.deadlocks.search.trim import held_meets
 
     rng = np.random.default_rng(7)

@@ -1,10 +1,10 @@
-"""Settings of the deadlock-resolving search (planners/deadlocks/search/settings.py)."""
+"""Settings of the deadlock-resolving search (planners/roadmap/alpha_beta/settings.py)."""
 from __future__ import annotations
 
 import pytest
 
 from rfp_twin.models.errors import SpecError
-from rfp_twin.planners.deadlocks.search.settings import SearchResolveSettings
+from rfp_twin.planners.roadmap.alpha_beta.settings import SearchResolveSettings
 
 
 @pytest.mark.parametrize("kwargs,field", [

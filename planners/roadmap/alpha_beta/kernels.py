@@ -1,7 +1,7 @@
 """Numba kernels of the search's collision tests: beta segments along a path and the
 step rule (Sayres 2021 Eqs. 6-7) against moving obstacles, static obstacles and points.
 
-:class:`rfp_twin.planners.deadlocks.search.world.AlphaBetaWorld` builds the obstacle tables and
+:class:`rfp_twin.planners.roadmap.alpha_beta.world.AlphaBetaWorld` builds the obstacle tables and
 calls these in its ``collides`` / ``forbidden`` black boxes; :func:`pair_conflict`
 also serves :func:`rfp_twin.planners.deadlocks.search.trim.trim_tails`.
 
@@ -364,7 +364,7 @@ def edges_forbidden(q0s, q1s, step, bx, by, l_alpha, s0, s1, limits, st_seg, st_
                     pt_th, out, counts):
     """:func:`static_collisions` along straight edges: ``out[e]`` is True when a point
     of edge ``q0s[e] -> q1s[e]`` ((E, 2) deg each) is forbidden, the points being those
-    of :func:`rfp_twin.planners.roadmap.graph._edge_samples` at most ``step`` (2,) deg
+    of :func:`rfp_twin.planners.roadmap.graph.edge_samples` at most ``step`` (2,) deg
     apart per joint (ends included, as ``np.linspace`` places them); an edge stops at its
     first forbidden point. ``counts[e]``: the edge's number of points (E,) int64.
 

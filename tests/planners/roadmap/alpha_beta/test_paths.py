@@ -1,11 +1,11 @@
-"""Breakpoint paths on the step clock (planners/deadlocks/search/paths.py)."""
+"""Breakpoint paths on the step clock (planners/roadmap/alpha_beta/paths.py)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from rfp_twin.models.errors import SpecError
-from rfp_twin.planners.deadlocks.search.paths import PathSet
+from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
 
 
 def two_robots() -> PathSet:

@@ -1,4 +1,4 @@
-"""Sabater's prioritized planner on whole arrays (planners/roadmap/array.py), checked by the
+"""Sabater's prioritized planner on whole arrays (planners/roadmap/alpha_beta/array.py), checked by the
 independent 2D checker (rfp_twin.validation.checker2d), never by the planner itself."""
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from rfp_twin.models.errors import SpecError
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
 from rfp_twin.planners.plan import REACHED
-from rfp_twin.planners.deadlocks.search import SearchResolveSettings
-from rfp_twin.planners.roadmap.array import roadmap_pass, travel_priority
+from rfp_twin.planners.roadmap.alpha_beta import SearchResolveSettings
+from rfp_twin.planners.roadmap.alpha_beta.array import roadmap_pass, travel_priority
 from rfp_twin.planners.plan import PlannerSettings, plan_reconfiguration
 from rfp_twin.planners.stepwise import max_displacement
 from rfp_twin.models.trajectory import Trajectory

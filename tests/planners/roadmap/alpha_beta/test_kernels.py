@@ -1,10 +1,10 @@
-"""Numba kernels of the search's collision tests (planners/deadlocks/search/kernels.py),
+"""Numba kernels of the search's collision tests (planners/roadmap/alpha_beta/kernels.py),
 against beta segments written out by hand."""
 from __future__ import annotations
 
 import numpy as np
 
-from rfp_twin.planners.deadlocks.search.kernels import (moving_collisions, pair_conflict, reach_of,
+from rfp_twin.planners.roadmap.alpha_beta.kernels import (moving_collisions, pair_conflict, reach_of,
                                              segments_at, static_collisions)
 
 L_ALPHA, S0, S1 = 7.4, 0.0, 15.0
@@ -69,7 +69,7 @@ def test_edge_checks_that_skip_clear_points_answer_as_checking_every_point():
     on 2,000 random edges around a point and a segment obstacle (thresholds drawn so
     that many edges graze them, some edges leaving the joint limits) every answer is
     that of checking each point with ``static_collisions``."""
-    from rfp_twin.planners.deadlocks.search.kernels import edges_forbidden
+    from rfp_twin.planners.roadmap.alpha_beta.kernels import edges_forbidden
 
     rng = np.random.default_rng(7)
     pts = np.array([[12.0, 9.0]])
@@ -101,7 +101,7 @@ def test_edge_checks_that_skip_clear_points_answer_as_checking_every_point():
 def test_block_discs_hold_every_segment_of_their_steps():
     """The discs that let the sweep skip far obstacles hold each obstacle's beta segment
     at every step of their block (a gone obstacle, far away, included)."""
-    from rfp_twin.planners.deadlocks.search.kernels import DISC_BLOCK, block_discs
+    from rfp_twin.planners.roadmap.alpha_beta.kernels import DISC_BLOCK, block_discs
 
     rng = np.random.default_rng(3)
     ang = np.cumsum(rng.normal(0.0, 2.0, size=(101, 2)), axis=0)

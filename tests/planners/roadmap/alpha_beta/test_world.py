@@ -1,12 +1,12 @@
-"""One robot's black boxes for the search (planners/deadlocks/search/world.py): the step
+"""One robot's black boxes for the search (planners/roadmap/alpha_beta/world.py): the step
 rule against moving robots, offline robots and the joint limits."""
 from __future__ import annotations
 
 import numpy as np
 
 from rfp_twin.models.kinematics import inverse
-from rfp_twin.planners.deadlocks.search.paths import PathSet
-from rfp_twin.planners.deadlocks.search.world import AlphaBetaWorld
+from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
+from rfp_twin.planners.roadmap.alpha_beta.world import AlphaBetaWorld
 from rfp_twin.planners.stepwise import max_displacement
 from tests.planners.conftest import make_geom
 
@@ -101,7 +101,7 @@ def test_the_compiled_sweep_finds_what_the_python_layer_loop_finds():
     sub-check); and a node budget stops both alike."""
     from dataclasses import replace
 
-    from rfp_twin.planners.deadlocks.search.settings import SearchResolveSettings
+    from rfp_twin.planners.roadmap.alpha_beta.settings import SearchResolveSettings
     from rfp_twin.planners.roadmap import plan_arm
 
     geom, step, md, fold, c = _hex7_folded()
@@ -139,7 +139,7 @@ def test_arms_of_one_robot_share_their_edge_checks():
     trajectory as a plan with a memo of its own."""
     from dataclasses import replace
 
-    from rfp_twin.planners.deadlocks.search.settings import SearchResolveSettings
+    from rfp_twin.planners.roadmap.alpha_beta.settings import SearchResolveSettings
     from rfp_twin.planners.roadmap import plan_arm
 
     geom, step, md, fold, c = _hex7_folded()

@@ -32,11 +32,11 @@ import math
 import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
-from rfp_twin.planners.deadlocks.search.kernels import (block_discs, edges_forbidden,
+from rfp_twin.planners.roadmap.alpha_beta.kernels import (block_discs, edges_forbidden,
                                                       moving_collisions, pair_conflict, reach_of,
                                                       segments_at, static_collisions,
                                                       sweep_layers, sweep_paths)
-from rfp_twin.planners.deadlocks.search.paths import PathSet
+from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
 from rfp_twin.planners.roadmap import Arm, ArmTrajectory
 
 #: Coordinate (mm) that puts an obstacle out of reach once it is gone.

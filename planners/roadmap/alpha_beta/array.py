@@ -39,8 +39,10 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import SpecError, field_error
-from rfp_twin.planners.deadlocks.search import AlphaBetaWorld, PathSet, SearchResolveSettings
 from rfp_twin.planners.roadmap import edge_time, plan_arm
+from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
+from rfp_twin.planners.roadmap.alpha_beta.settings import SearchResolveSettings
+from rfp_twin.planners.roadmap.alpha_beta.world import AlphaBetaWorld
 
 
 @dataclass
