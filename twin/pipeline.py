@@ -77,9 +77,11 @@ def _choice(name: str, value: str, allowed: tuple[str, ...]) -> None:
 class PlanOptions:
     """How to plan and what to deliver (every option of ``rfp-twin plan``).
 
-    algorithm : greedy | markov | roadmap (stepwise, with deadlock resolution) | apf | capf
+    algorithm : greedy | markov | mdp2 | roadmap (stepwise, with deadlock resolution) | apf | capf
     step_deg : angular step of the stepwise planners, deg
-    greed, phobia : Markov parameters in [0, 1]
+    greed, phobia : Markov / MDP2 parameters in [0, 1] [default: markov 0.9 / 0.3, mdp2 the
+        production 0.7 / 0.6]
+    tries : mdp2: tries, each from the start after the most folded stuck robot is nudged
     direction : reverse (targets -> fold, played backwards) | forward
     resolve : search | replace | none (deadlocks left by the stepwise planners)
     max_steps, max_rounds : step limit [default 1000 deg / step] and resolution rounds
@@ -100,8 +102,9 @@ class PlanOptions:
 
     algorithm: str = "greedy"
     step_deg: float = 0.1
-    greed: float = 0.9
-    phobia: float = 0.3
+    greed: float | None = None
+    phobia: float | None = None
+    tries: int = 5
     direction: str = "reverse"
     resolve: str = "search"
     max_steps: int | None = None
@@ -127,13 +130,14 @@ class PlanOptions:
 
     @property
     def stepwise(self) -> bool:
-        """True for the stepwise planners (greedy, markov, roadmap)."""
+        """True for the stepwise planners (greedy, markov, mdp2, roadmap)."""
         return self.algorithm in ALGORITHMS
 
     def planner_settings(self) -> PlannerSettings:
         """The stepwise planner's settings (field planners: the greedy defaults, unused)."""
         return PlannerSettings(algorithm=self.algorithm if self.stepwise else "greedy",
                                step_deg=self.step_deg, greed=self.greed, phobia=self.phobia,
+                               tries=self.tries,
                                direction=self.direction, max_steps=self.max_steps,
                                max_rounds=self.max_rounds, reruns=self.reruns,
                                beta_first=self.beta_first, fold_repairs=self.fold_repairs,

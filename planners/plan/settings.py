@@ -14,7 +14,10 @@ from rfp_twin.models.errors import SpecError
 if TYPE_CHECKING:
     from rfp_twin.planners.roadmap.alpha_beta import SearchResolveSettings
 
-ALGORITHMS = ("greedy", "markov", "roadmap")
+ALGORITHMS = ("greedy", "markov", "mdp2", "roadmap")
+#: (greed, phobia) when not given: the paper's MC setting for markov, SDSS-V's production
+#: one (jaeger's configuration of kaiju's MDP2) for mdp2.
+DEFAULT_GREED_PHOBIA = {"markov": (0.9, 0.3), "mdp2": (0.7, 0.6)}
 DIRECTIONS = ("reverse", "forward")
 RESOLVERS = ("search", "replace")
 
@@ -23,9 +26,11 @@ RESOLVERS = ("search", "replace")
 class PlannerSettings:
     """Parameters of one planning job.
 
-    algorithm : "greedy" | "markov" (the stepwise kernel) | "roadmap" (Sabater's
-    prioritized planner on every robot, :mod:`rfp_twin.planners.roadmap.alpha_beta.array`); step_deg :
-    angular step (deg); greed, phobia : MC parameters in [0, 1]; direction : "reverse" |
+    algorithm : "greedy" | "markov" (the stepwise kernel) | "mdp2" (SDSS-V's production
+    generator, :mod:`rfp_twin.planners.stepwise.mdp2`) | "roadmap" (Sabater's
+    prioritized planner on every robot, :mod:`rfp_twin.planners.roadmap.alpha_beta.array`);
+    step_deg : angular step (deg); greed, phobia : MC / MDP2 parameters in [0, 1] (None:
+    markov 0.9 / 0.3, mdp2 0.7 / 0.6); tries : mdp2's tries (>= 1); direction : "reverse" |
     "forward"; max_steps : step limit (default 1000 deg / step, as in the paper);
     max_rounds : deadlock-resolution rounds.
     resolve : "search" (re-plan each deadlocked group with the state-time search of
@@ -55,8 +60,9 @@ class PlannerSettings:
 
     algorithm: str = "greedy"
     step_deg: float = 0.1
-    greed: float = 0.9
-    phobia: float = 0.3
+    greed: float | None = None
+    phobia: float | None = None
+    tries: int = 5
     direction: str = "reverse"
     max_steps: int | None = None
     max_rounds: int = 50
@@ -77,10 +83,15 @@ class PlannerSettings:
             raise SpecError(f"field 'direction' = {self.direction!r}; allowed: {', '.join(DIRECTIONS)}")
         if not (np.isfinite(self.step_deg) and 0.001 <= self.step_deg <= 10.0):
             raise SpecError(f"field 'step_deg' = {self.step_deg!r}; allowed: [0.001, 10] deg")
-        for name in ("greed", "phobia"):
+        defaults = DEFAULT_GREED_PHOBIA.get(self.algorithm, DEFAULT_GREED_PHOBIA["markov"])
+        for name, default in zip(("greed", "phobia"), defaults):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, default)
             v = getattr(self, name)
             if not (np.isfinite(v) and 0.0 <= v <= 1.0):
                 raise SpecError(f"field '{name}' = {v!r}; allowed: [0, 1]")
+        if self.tries < 1:
+            raise SpecError(f"field 'tries' = {self.tries!r}; allowed: >= 1")
         if self.max_steps is not None and self.max_steps < 1:
             raise SpecError(f"field 'max_steps' = {self.max_steps!r}; allowed: >= 1")
         if self.max_rounds < 0:

@@ -52,12 +52,17 @@ def plan(
                                   "(generated grids only)."),
     buffer: Optional[float] = typer.Option(None, help="Collision buffer sigma_cb, mm [default: preset]."),
     step: float = typer.Option(0.1, help="Angular step, deg."),
-    algorithm: str = typer.Option("greedy", help="greedy | markov (stepwise, Sayres 2021) | roadmap "
+    algorithm: str = typer.Option("greedy", help="greedy | markov (stepwise, Sayres 2021) | mdp2 "
+                                  "(SDSS-V's production generator, kaiju's MDP2) | roadmap "
                                   "(Sabater 2018 prioritized state-time planner on every robot; "
                                   "slow: minutes on 500 robots) | apf (Makarem 2014 navigation "
                                   "function) | capf (Macktoobian 2019)"),
-    greed: float = typer.Option(0.9, help="Markov greed, [0, 1]."),
-    phobia: float = typer.Option(0.3, help="Markov phobia, [0, 1]."),
+    greed: Optional[float] = typer.Option(None, help="Markov / MDP2 greed, [0, 1] [default: "
+                                          "markov 0.9, mdp2 0.7]."),
+    phobia: Optional[float] = typer.Option(None, help="Markov / MDP2 phobia, [0, 1] [default: "
+                                           "markov 0.3, mdp2 0.6]."),
+    tries: int = typer.Option(5, help="mdp2: tries, each from the targets again after the most "
+                              "folded stuck robot is nudged, >= 1."),
     seed: int = typer.Option(0, help="Seed of targets, Markov moves and replacements."),
     n_targets: Optional[int] = typer.Option(None, help="Probe-arm presets (miradas-probe): "
                                             "this many random targets drawn with --seed "
@@ -142,7 +147,8 @@ def plan(
 
     t_start = time.perf_counter()
     options = PlanOptions(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,
-                          direction=direction, resolve=resolve, reruns=reruns, max_steps=max_steps,
+                          tries=tries, direction=direction, resolve=resolve, reruns=reruns,
+                          max_steps=max_steps,
                           beta_first=beta_first, fold_repairs=fold_repairs,
                           apf_gain=apf_gain, lambda3=lambda3, raw=raw, budget_mm=budget,
                           max_points=max_points, timing_backend=timing_backend)
@@ -176,8 +182,9 @@ def plan(
     if flow == "jaeger":
         from rfp_twin.twin.cli.flow import run_jaeger_flow
 
-        return run_jaeger_flow(rc, seed, tg, out, force, algorithm=algorithm, greed=greed,
-                               phobia=phobia, step=step)
+        chosen = options.planner_settings()
+        return run_jaeger_flow(rc, seed, tg, out, force, algorithm=algorithm, greed=chosen.greed,
+                               phobia=chosen.phobia, step=step)
     t_setup = time.perf_counter()
     n, rounds = rc.geom.n_robots, options.max_rounds + 1
     with progress_bar("planning", "{task.completed}/{task.total}") as progress:
