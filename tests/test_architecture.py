@@ -1,8 +1,9 @@
 """The structure rules of docs/DESIGN.md, checked on every test run.
 
-- Dependencies point one way: models <- (planners | validation) <- twin, and the
-  checkers do not share the planner's distance code (import-linter contracts in
-  pyproject.toml, run with the maintained tool itself, not a hand-written walker).
+- Dependencies point one way: models <- (planners | validation) <- twin, the checkers
+  do not share the planner's distance code, and the deadlock strategies do not import
+  each other (import-linter contracts in pyproject.toml, run with the maintained tool
+  itself, not a hand-written walker).
 - No source module is longer than a person holds in mind (``MAX_LINES``).
 """
 from __future__ import annotations

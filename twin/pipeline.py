@@ -24,7 +24,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -36,16 +36,20 @@ from rfp_twin.models.options import declared, option, option_info, same_option
 from rfp_twin.models.kinds import ALPHA_BETA
 from rfp_twin.models.robot import RobotSpec, load_spec, preset_kind
 from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.planners.plan import (ALGORITHMS, DIRECTIONS, RESOLVERS, Plan, PlannerSettings,
+                                      plan_reconfiguration)
 from rfp_twin.planners.plan.kinds import require_planner_kind
 from rfp_twin.planners.plan.offline import apply_offline
-from rfp_twin.planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
-from rfp_twin.planners.plan import (ALGORITHMS, DIRECTIONS, RESOLVERS, PlannerSettings,
-                                      plan_reconfiguration)
-from rfp_twin.planners.stepwise import array_max_displacement
 from rfp_twin.planners.plan.targets import random_targets
+from rfp_twin.planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
 from rfp_twin.planners.postprocess.timing import BACKENDS, DEFAULT_BACKEND
+from rfp_twin.planners.stepwise import array_max_displacement
 from rfp_twin.twin.outcome import Outcome
-from rfp_twin.validation.checker2d import check_trajectory
+from rfp_twin.validation.checker2d import CheckReport, check_trajectory
+
+if TYPE_CHECKING:                     # loaded on first use (a field planner, post-processing)
+    from rfp_twin.planners.fields import ApfResult
+    from rfp_twin.planners.postprocess import PostprocessReport
 
 #: Planners that integrate a potential field (Makarem 2014 APF, Macktoobian 2019 CAPF).
 FIELD_ALGORITHMS = ("apf", "capf")
@@ -218,7 +222,8 @@ class Reconfiguration:
 
     # ----------------------------------------------------------------------- the steps
     def plan(self, targets: np.ndarray, rng: np.random.Generator, *,
-             on_round: Callable[[int, int], None] | None = None):
+             on_round: Callable[[int, int], None] | None = None
+             ) -> tuple[Plan, ApfResult | None]:
         """Plan fold -> targets. Returns ``(Plan, ApfResult or None)``.
 
         ``on_round(round, n_stuck)`` is called after each stepwise planner run."""
@@ -233,8 +238,8 @@ class Reconfiguration:
                                     progress=on_round)
         return plan, None
 
-    def deliver(self, plan, progress: Callable[[int, int], None] | None = None
-                ) -> tuple[Trajectory, object, object]:
+    def deliver(self, plan: Plan, progress: Callable[[int, int], None] | None = None
+                ) -> tuple[Trajectory, PostprocessReport | None, CheckReport]:
         """Firmware-ready trajectory (or the raw stepwise one), its post-processing report
         (None when raw) and the independent 2D check of what is delivered:
         ``(Trajectory, PostprocessReport | None, CheckReport)``.

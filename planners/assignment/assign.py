@@ -35,7 +35,7 @@ from rfp_twin.planners.assignment.conflicts import (conflict_cliques, conflict_d
                                                     conflict_pairs, neighbour_pairs)
 from rfp_twin.planners.assignment.dominance import undominated
 from rfp_twin.planners.assignment.greedy import greedy_assign
-from rfp_twin.planners.assignment.problem import Problem
+from rfp_twin.planners.assignment.problem import Problem, Rows
 from rfp_twin.planners.assignment.solvers import SOLVERS, solve
 from rfp_twin.planners.assignment.windows import improve_windows
 
@@ -243,7 +243,9 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
     degree = conflict_degrees(cands, pairs, geom.buffer, s.margin_mm)
     greedy_chosen, sweeps = greedy_assign(cands, catalogue.n_targets, nbr_ptr, nbr_idx,
                                           geom.buffer, s.margin_mm, allowed=allowed,
-                                          degree=degree, max_sweeps=s.max_sweeps)
+                                          degree=degree,
+                                          quotas=[(m, q) for m, q, _ in quota_rows],
+                                          max_sweeps=s.max_sweeps)
     t_greedy = time.perf_counter()
     stats = {"n_robots": geom.n_robots, "n_targets": catalogue.n_targets,
              "n_candidates": n_real, "n_neighbour_pairs": int(pairs.shape[0]),
@@ -303,8 +305,8 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
             # too large to solve whole: the greedy poses improved window by window
             got = improve_windows(cands, chosen, geom.base_xy, catalogue.n_targets, a, b,
                                   robots=robots, time_limit_s=left)
-            for k in ("windows", "improved"):
-                stats[f"windows_{k}"] = stats.get(f"windows_{k}", 0) + got[k]
+            for k, name in (("windows", "windows_solved"), ("improved", "windows_improved")):
+                stats[name] = stats.get(name, 0) + got[k]
             all_optimal = False
             bound += easy
             continue
@@ -354,12 +356,10 @@ def _explain_quota(geom, cands: Candidates, problem: Problem, quota_rows, method
                    s: AssignSettings) -> None:
     """Raise AssignmentError naming the first quota whose best reachable count (each
     quota alone, by the exact solver) is below its minimum, or saying they conflict."""
-    from rfp_twin.planners.assignment.problem import Problem as P
-
     for members, minimum, what in quota_rows:
         w = np.zeros(cands.n)
         w[members] = 1.0
-        alone = P(problem.robot, w, _without_quotas(problem), problem.n_robots, 0)
+        alone = Problem(problem.robot, w, _without_quotas(problem), problem.n_robots, 0)
         best = 0.0
         for sub in alone.split():
             if sub.weight.max(initial=0.0) <= 0:
@@ -373,9 +373,8 @@ def _explain_quota(geom, cands: Candidates, problem: Problem, quota_rows, method
                           "alone but not all together; allowed: lower quotas")
 
 
-def _without_quotas(problem: Problem):
-    from rfp_twin.planners.assignment.problem import Rows
-
+def _without_quotas(problem: Problem) -> Rows:
+    """``problem``'s rows without its quota rows (the last ``n_quota``)."""
     r = problem.rows
     keep = r.n_rows - problem.n_quota
     end = int(r.ptr[keep])

@@ -48,14 +48,18 @@ def _clear_of_neighbours(seg, i, a, chosen, nbr_ptr, nbr_idx, buffer, margin, sk
 
 @njit(cache=True)
 def greedy_kernel(seg, robot, target, weight, ptr, order, n_targets, nbr_ptr, nbr_idx, buffer,
-                  margin, chosen, allowed):
+                  margin, chosen, allowed, limit=-1):
     """Greedy pass over ``order`` (candidate indices): fills ``chosen`` (n,) with one
-    candidate per robot (start: parking). ``allowed`` (c,) bool: candidates it may take."""
+    candidate per robot (start: parking). ``allowed`` (c,) bool: candidates it may take;
+    ``limit``: stop after taking that many (-1: no limit). Returns the number taken."""
     taken = np.zeros(n_targets, dtype=np.bool_)
     for i in range(chosen.shape[0]):
         if target[chosen[i]] >= 0:
             taken[target[chosen[i]]] = True
+    count = 0
     for k in range(order.shape[0]):
+        if count == limit:
+            break
         a = order[k]
         i = robot[a]
         t = target[a]
@@ -64,6 +68,8 @@ def greedy_kernel(seg, robot, target, weight, ptr, order, n_targets, nbr_ptr, nb
         if _clear_of_neighbours(seg, i, a, chosen, nbr_ptr, nbr_idx, buffer, margin, -1):
             chosen[i] = a
             taken[t] = True
+            count += 1
+    return count
 
 
 @njit(cache=True)
@@ -238,12 +244,25 @@ def greedy_order(cands, n_targets: int, degree: np.ndarray | None = None) -> np.
 
 def greedy_assign(cands, n_targets: int, nbr_ptr: np.ndarray, nbr_idx: np.ndarray,
                   buffer: np.ndarray, margin_mm: float, *, allowed: np.ndarray | None = None,
-                  degree: np.ndarray | None = None,
+                  degree: np.ndarray | None = None, quotas=(),
                   max_sweeps: int = 20) -> tuple[np.ndarray, int]:
     """Greedy + local improvement: ``(chosen (n,) candidate per robot, sweeps)``;
-    ``degree``: see :func:`greedy_order`."""
-    allowed = np.ones(cands.n, dtype=bool) if allowed is None else allowed
+    ``degree``: see :func:`greedy_order`. ``quotas``: ``[(candidates, minimum)]`` filled
+    first, fewest excluded poses first, up to each minimum; the robots that fill them
+    then keep those poses."""
+    allowed = np.ones(cands.n, dtype=bool) if allowed is None else allowed.copy()
     chosen = cands.parking.astype(np.int64).copy()
+    key = np.zeros(cands.n) if degree is None else degree
+    for members, minimum in quotas:
+        order = np.asarray(members, dtype=np.int64)[np.argsort(key[members], kind="stable")]
+        greedy_kernel(cands.seg, cands.robot, cands.target, cands.weight, cands.ptr, order,
+                      n_targets, nbr_ptr, nbr_idx, buffer, float(margin_mm), chosen, allowed,
+                      int(minimum))
+    if len(quotas):
+        locked = np.flatnonzero(cands.target[chosen] >= 0)
+        for r in locked:
+            allowed[cands.ptr[r]:cands.ptr[r + 1]] = False
+        allowed[chosen[locked]] = True
     greedy_kernel(cands.seg, cands.robot, cands.target, cands.weight, cands.ptr,
                   greedy_order(cands, n_targets, degree), n_targets, nbr_ptr, nbr_idx, buffer,
                   float(margin_mm), chosen, allowed)

@@ -39,7 +39,7 @@ pipeline's independent 2D check looks at the result as at any plan.
 
 The re-runs come before the state-time search because they untangle most groups in a
 fraction of its time and without lengthening the fold, where the search's plans often
-do (benchmarks/HISTORY.md, "Code comments": rfp_twin.planners.deadlocks.rerun).
+do (benchmarks/HISTORY.md, "Code comments", under the former path planners/rerun.py).
 :class:`RerunResolver` is the strategy of the chain (greedy plans, before the search).
 
 Units: planner steps; wall time in s.
@@ -240,7 +240,7 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
     # core meanwhile (the kernel releases the GIL) and is used only if a group is left
     ahead = None
     if stuck.size <= WHOLE_ARRAY_ROBOTS and groups:
-        ahead = _Ahead(_ladder, stuck, None, movable, pairs, paths, {}, run, goal, fold,
+        ahead = _Ahead(attempt_ladder, stuck, None, movable, pairs, paths, {}, run, goal, fold,
                        max_steps, int(seed) + 7919, min(attempts, WHOLE_ATTEMPTS))
     for c, members in enumerate(groups):
         own = np.zeros(stuck.size, dtype=bool)
@@ -248,7 +248,7 @@ def rerun_deadlocks(first: StepRun, goal: np.ndarray, movable: np.ndarray, pairs
         # other groups' stuck robots, and the robots of the patches solved before, replay
         allowed = ~(stuck & ~solved & ~own)
         allowed[list(override)] = False
-        best, tries, stops, _ = _ladder(own, allowed, movable, pairs, paths, override, run,
+        best, tries, stops, _ = attempt_ladder(own, allowed, movable, pairs, paths, override, run,
                                         goal, fold, max_steps, int(seed) + 1000003 * c, attempts)
         made += tries
         blocked += stops
@@ -324,7 +324,7 @@ class _Ahead:
         self._pool.shutdown(wait=False)
 
 
-def _ladder(own, allowed, movable, pairs, paths, override, run, goal, fold, max_steps, seed,
+def attempt_ladder(own, allowed, movable, pairs, paths, override, run, goal, fold, max_steps, seed,
             attempts, stop: threading.Event | None = None, idle: threading.Event | None = None):
     """The attempts on one group (robots ``own`` (n,) bool; patches within ``allowed``,
     or whole-array runs when it is None), until ``stop`` is set if given. Returns (best

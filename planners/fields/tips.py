@@ -22,7 +22,7 @@ from rfp_twin.planners.fields.settings import DEG, checked_number, obstacle_csr
 
 
 @njit(cache=True)
-def _assign_tips(base, pool, fixed, out, nbr_ptr, nbr_idx, fid_ptr, fid_idx, fid_a, fid_b, la, lb,
+def assign_tips(base, pool, fixed, out, nbr_ptr, nbr_idx, fid_ptr, fid_idx, fid_a, fid_b, la, lb,
                  sep, fid_sep):
     """For each robot in order, the first pool entry whose tip is > sep from the tips of
     robots already placed and > fid_sep[f] from each obstacle f (segment fid_a[f]-fid_b[f],
@@ -121,7 +121,7 @@ def random_tip_configs(geom: ArrayGeometry, rng: np.random.Generator, min_sep_mm
         for rows in groups:
             draws[rows] = sample_patrol_zone(rng, rows.size * pool, float(la_arr[rows[0]]),
                                              lb).reshape(rows.size, pool, 2)
-        bad = _assign_tips(geom.base_xy, draws, fix, out, np.asarray(ptr, dtype=np.int64),
+        bad = assign_tips(geom.base_xy, draws, fix, out, np.asarray(ptr, dtype=np.int64),
                            np.asarray(idx, dtype=np.int64), fptr, fidx,
                            np.ascontiguousarray(geom.fid_xy, dtype=np.float64).reshape(-1, 2),
                            np.ascontiguousarray(geom.fid_end_xy, dtype=np.float64).reshape(-1, 2),

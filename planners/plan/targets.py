@@ -115,7 +115,7 @@ def _draw_targets(geom, rng, fixed, initial, margin_mm, robots) -> np.ndarray:
     args = (geom.nbr_ptr, geom.nbr_idx, geom.fid_ptr, geom.fid_idx, geom.fid_xy,
             geom.fid_end_xy, geom.fid_buffer, geom.alpha_len, geom.seg_start, geom.seg_end,
             geom.buffer, margin_mm, out)
-    sample = _patrol_sampler(geom)
+    sample = patrol_sampler(geom)
     pos = 0
     while pos < order.size:
         rest = order[pos:]
@@ -145,7 +145,7 @@ def _draw_targets(geom, rng, fixed, initial, margin_mm, robots) -> np.ndarray:
 MAX_LIMIT_REDRAWS = 64
 
 
-def _patrol_sampler(geom):
+def patrol_sampler(geom):
     """``sample(rng, robots (r,), k) -> (r, k, 2)`` deg: right-armed configurations with the
     fiber uniform (by area) in each robot's patrol annulus, within its travel range.
 

@@ -64,7 +64,7 @@ class Arm:
         nodes_left, hits, stop)`` (:func:`rfp_twin.planners.roadmap.alpha_beta.kernels.sweep_paths`)
     edges_forbidden : callable or None, ``forbidden`` along many straight edges in one
         call: ``edges_forbidden(q0s (E, d), q1s (E, d), step (d,)) -> (any point forbidden
-        (E,) bool, points (E,) int)``, the points as :func:`rfp_twin.planners.roadmap.graph._edge_samples`
+        (E,) bool, points (E,) int)``, the points as :func:`rfp_twin.planners.roadmap.graph.edge_samples`
         places them
     edge_memo : dict or None, where :func:`rfp_twin.planners.roadmap.plan_arm` keeps which
         straight edges avoid ``forbidden``: arms that share one ``forbidden`` (the same

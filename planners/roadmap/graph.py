@@ -45,7 +45,7 @@ def edge_time(q0: np.ndarray, q1: np.ndarray, vmax: np.ndarray) -> float:
     return float(np.max(np.abs(np.asarray(q1) - np.asarray(q0)) / vmax))
 
 
-def _edge_samples(q0: np.ndarray, q1: np.ndarray, step: np.ndarray) -> np.ndarray:
+def edge_samples(q0: np.ndarray, q1: np.ndarray, step: np.ndarray) -> np.ndarray:
     """Points along the straight edge q0 -> q1, ends included, at most ``step`` apart per joint."""
     n = int(max(1, math.ceil(float(np.max(np.abs(q1 - q0) / step)) - 1e-9)))
     f = np.linspace(0.0, 1.0, n + 1)[:, None]
@@ -110,7 +110,7 @@ class EdgeFeasibility:
         """The memo's answer for edge q0 -> q1 (``key``), checked point by point if absent."""
         hit = self.memo.get(key)
         if hit is None:
-            pts = _edge_samples(q0, q1, self.step)
+            pts = edge_samples(q0, q1, self.step)
             self.checks += len(pts)
             hit = not bool(np.any(self.arm.forbidden(pts)))
             self.memo[key] = hit

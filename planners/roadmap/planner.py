@@ -77,7 +77,7 @@ def plan_arm(arm: Arm, settings: RoadmapSettings, rng: np.random.Generator,
     feasible = EdgeFeasibility(arm, edge_check_spacing(arm, settings))
     clear_after = goal_clear_after(arm, settings)
     result = None
-    for t_dep in _departures(arm, settings, stats):
+    for t_dep in departure_times(arm, settings, stats):
         sub = arm
         if arm.lead_in is not None:
             q_dep = _lead_in_at(arm, t_dep)
@@ -100,7 +100,7 @@ def _search_roadmap(arm: Arm, roadmap: Roadmap, settings: RoadmapSettings, stats
     """Algorithm 2's loop: paths cheapest first, the first one that gets a trajectory
     (with a compiled sweep of several paths, in batches on two cores:
     :mod:`rfp_twin.planners.roadmap.sweep_batches`, the same result)."""
-    paths = _candidates(roadmap, settings, feasible)
+    paths = candidate_paths(roadmap, settings, feasible)
     if settings.search == "sweep" and arm.sweep_paths is not None and arm.sweep is not None:
         first = next(paths, None)
         if first is None:
@@ -120,7 +120,7 @@ def _search_roadmap(arm: Arm, roadmap: Roadmap, settings: RoadmapSettings, stats
     return None
 
 
-def _candidates(roadmap: Roadmap, settings: RoadmapSettings,
+def candidate_paths(roadmap: Roadmap, settings: RoadmapSettings,
                 feasible: EdgeFeasibility) -> Iterator[np.ndarray]:
     """The roadmap's paths to try, in order: zero-length edges dropped, edges through the
     forbidden zone skipped, at most ``max_paths`` and none slower than ``max_path_time``.
@@ -149,7 +149,7 @@ def _candidates(roadmap: Roadmap, settings: RoadmapSettings,
     return itertools.islice(clear(cleaned()), settings.max_paths)
 
 
-#: Roadmap paths whose edges :func:`_candidates` checks in one call.
+#: Roadmap paths whose edges :func:`candidate_paths` checks in one call.
 EDGE_BLOCK = 64
 
 
@@ -158,7 +158,7 @@ def _lead_in_at(arm: Arm, t: float) -> np.ndarray:
     return np.array([np.interp(t, times, configs[:, k]) for k in range(configs.shape[1])])
 
 
-def _departures(arm: Arm, settings: RoadmapSettings, stats: SearchStats) -> list[float]:
+def departure_times(arm: Arm, settings: RoadmapSettings, stats: SearchStats) -> list[float]:
     """Times at which the arm may leave its lead-in, latest first ([t_start] without one).
 
     Candidates lie on the dt grid from ``t_start`` to the end of the lead-in, up to the

@@ -32,7 +32,7 @@ from rfp_twin.planners.roadmap.arm import (Arm, ArmTrajectory, RoadmapSettings, 
                                            compress_breakpoints)
 
 
-def _neighbour_actions(ns: int, m: int, n_stop: int | None) -> list[tuple[int, int]]:
+def neighbour_actions(ns: int, m: int, n_stop: int | None) -> list[tuple[int, int]]:
     """(motion, ns) of the children of a node, least promising first (Algorithms 5-6).
 
     The depth-first search pops the last entry first, so forward is tried first.
@@ -185,7 +185,7 @@ class PathSearch(PathWalk):
                 continue
             static = k_static is not None and k >= k_static
             clear = None
-            for m2, ns2 in _neighbour_actions(ns, m, n_stop):
+            for m2, ns2 in neighbour_actions(ns, m, n_stop):
                 if static and m2 != 1:
                     continue          # obstacles have stopped: waiting or backing up is useless
                 i2 = i + m2

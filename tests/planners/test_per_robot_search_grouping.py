@@ -25,7 +25,7 @@ from rfp_twin.models.robot import load_spec
 from rfp_twin.planners.plan import REACHED, Plan
 from rfp_twin.planners.deadlocks.search import AlphaBetaWorld, PathSet, trim_tails
 from rfp_twin.planners.roadmap import ArmTrajectory
-from rfp_twin.planners.postprocess.timing.grouping import (_pair_clearance_below, interaction_pairs,
+from rfp_twin.planners.postprocess.timing.grouping import (pair_clearance_below, interaction_pairs,
                                                pair_clearance)
 
 SPEC = load_spec("sdss-v")
@@ -122,7 +122,7 @@ def test_interaction_walk_bounds_the_speed_of_a_long_arm():
     # the same walk with the spec's alpha length in the speed bound misses it
     r = max(float(geom.seg_end.max()), SPEC.segment_start_mm)
     mu_spec = np.full(2, (SPEC.alpha_length_mm + 2.0 * r) * plan.step_deg * DEG)
-    wrong = _pair_clearance_below(plan.path_ptr, plan.path_step, plan.path_angles, 60.0,
+    wrong = pair_clearance_below(plan.path_ptr, plan.path_step, plan.path_angles, 60.0,
                                   geom.base_xy, pairs, geom.alpha_len, geom.seg_start,
                                   geom.seg_end, geom.buffer, mu_spec, margin)
     assert wrong[0] >= margin

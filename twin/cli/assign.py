@@ -7,6 +7,7 @@ into its inputs (array, catalogue, settings) and its result into a folder
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
@@ -68,6 +69,7 @@ def assign(
     target are parked at the fold. Writes assignment.csv (plan it with `rfp-twin plan
     --targets OUT/assignment.csv`) and report.json."""
     from rfp_twin.models.robot import load_spec
+    from rfp_twin.planners import apply_offline
     from rfp_twin.planners.assignment import AssignSettings, Quotas
     from rfp_twin.planners.assignment import assign as run_assign
     from rfp_twin.twin.assignment_files import (ASSIGNMENT_CSV, REPORT_JSON, assignment_csv,
@@ -89,15 +91,11 @@ def assign(
     rc = Reconfiguration.from_names(spec, layout_name, buffer_mm=buffer,
                                     fiducial_ids=parse_ids(fiducials, "--fiducials"),
                                     options=PlanOptions(step_deg=step), offline=still)
-    from rfp_twin.planners import apply_offline
-
     apply_offline(rc.geom, still)       # unknown ids and angles out of range: one line
     tel = telescope_for(telescope, layout_name, spec.name)
     cat = load_catalogue(catalogue, rc.geom, telescope=tel,
                          field_centre=parse_centre(field_centre), seed=seed)
     margin = rc.target_margin_mm()
-    from dataclasses import replace
-
     settings = replace(settings, margin_mm=margin,
                        fixed=tuple((int(r), float(a), float(b)) for r, (a, b) in still.items()))
     result = run_assign(rc.geom, cat, settings)

@@ -84,7 +84,7 @@ def _as_slice(ids: np.ndarray):
     return ids
 
 
-class _Samples:
+class RunSamples:
     """The per-step bookkeeping both simulators share: the tracking error of every step
     and, every ``record_dt_s``, the true and nominal angles (n, 2) deg and the callback."""
 
@@ -109,7 +109,7 @@ class _Samples:
                 self.callback(float(t), *where)
 
 
-class _RunSetup:
+class RunSetup:
     """What both simulators (one model, tiles) set up the same way: the inputs and the
     :class:`Commands` of the run."""
 
@@ -120,7 +120,7 @@ class _RunSetup:
         self.faults = list(faults)
         self.commands = Commands(twin, trajectory, self.faults, self.settings.feedforward)
 
-    def _report(self, q_end: np.ndarray, t_end: float, wall: float, samples: _Samples,
+    def _report(self, q_end: np.ndarray, t_end: float, wall: float, samples: RunSamples,
                 record: bool, contacts, warnings: dict, messages) -> SimReport:
         """The :class:`SimReport` of a finished run: final angles ``q_end`` (n, 2) deg at
         ``t_end`` s against the nominal end, the stepping loop's ``wall`` s, the tracking
@@ -163,7 +163,7 @@ class _RunSetup:
             step = k1
 
 
-class Simulator(_RunSetup):
+class Simulator(RunSetup):
     """Runs one trajectory on a :class:`rfp_twin.models.mjcf.TwinModel`.
 
     Parameters
@@ -208,7 +208,7 @@ class Simulator(_RunSetup):
         n = twin.n_robots
         self.reset()
         chunk = max(1, int(round(self.settings.chunk_s / self.dt)))
-        samples = _Samples(n, self.settings, self.dt, callback)
+        samples = RunSamples(n, self.settings, self.dt, callback)
         contacts = ContactRecorder(twin.index)
         act, qadr = self._act_flat, self._qpos_flat
         wall0 = time.perf_counter()

@@ -47,7 +47,7 @@ from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.twin.cores import usable_cores
 from rfp_twin.twin.sim.contacts import ContactLog, ContactRecorder
 from rfp_twin.twin.sim.report import SimReport
-from rfp_twin.twin.sim.simulator import _RunSetup, _Samples, mujoco_warnings, step_count
+from rfp_twin.twin.sim.simulator import RunSamples, RunSetup, mujoco_warnings, step_count
 
 #: Largest number of values in one chunk of servo targets or nominal angles (steps x 2n):
 #: a chunk of ``chunk_s`` is shortened on large arrays so that its arrays stay ~64 MB.
@@ -152,7 +152,7 @@ def _balanced_groups(sizes: list[int], k: int) -> list[list[int]]:
     return [g for g in groups if g]
 
 
-class TiledSimulator(_RunSetup):
+class TiledSimulator(RunSetup):
     """Runs one trajectory on a :class:`TiledTwin` (see the module docstring); the same
     parameters and result as :class:`rfp_twin.twin.sim.simulator.Simulator`, plus
     ``threads`` (default: the CPUs this process may use). The callback is called as
@@ -187,7 +187,7 @@ class TiledSimulator(_RunSetup):
         q, v = self.reset()
         q_next, v_next = np.empty_like(q), np.empty_like(v)     # lock step: swapped each step
         chunk = max(1, min(int(round(self.settings.chunk_s / self.dt)), CHUNK_VALUES // (2 * n)))
-        samples = _Samples(n, self.settings, self.dt, callback)
+        samples = RunSamples(n, self.settings, self.dt, callback)
         B = self.block_steps
         q_blk, v_blk = np.empty((B, 2 * n)), np.empty((B, 2 * n))
         pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None

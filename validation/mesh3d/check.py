@@ -35,10 +35,15 @@ Algorithm
    certificate does not already exceed both ``min_gap_mm`` and ``cut = best - tol`` (on
    the SDSS-V meshes: none in a collision-free fold): bisection of ``C`` again, keeping
    what the bound cannot clear; emitted intervals are short enough (``L h <= 2 tol``)
-   that exact values at their ends usually settle them.
+   that exact values at their ends usually settle them, except where ``C`` is at or
+   below the threshold at both ends (inside a contact): there intervals of up to
+   :data:`CONTACT_MM` of relative motion are emitted whole, which two colliding ends
+   settle at once.
 4. *Exact* (FCL): ``D`` at the ends of every suspect interval (batched), then any
    interval still not cleared is bisected with exact values down to ``resolution_s``
-   (collision start / end, conservative reports, and the pair minimum). FCL gives no
+   (collision start / end, conservative reports, and the pair minimum). A point whose
+   ``C`` already exceeds both the threshold and the pair's cut keeps ``C`` (a lower
+   bound is all the interval bound needs there) and costs no FCL call. FCL gives no
    penetration depth (``D = 0`` inside a collision), so an interval whose two ends
    collide is reported as colliding throughout: a collision's ``[t_start, t_end]`` may
    contain a brief separation, never a missed contact.

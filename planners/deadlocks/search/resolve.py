@@ -29,8 +29,8 @@ deadlocked robot goes from its target, at step 0, to the folded state):
   post-processing smooths them.
 
 Recruiting the blocking neighbours and searching over priorities each raise the share
-of groups resolved over Sabater's fixed order (benchmarks/HISTORY.md, "Code comments":
-rfp_twin.planners.deadlocks.search.resolve). Whole-plan figures, with replacement where
+of groups resolved over Sabater's fixed order (benchmarks/HISTORY.md, "Code comments",
+under the module's former path planners/resolve_search/resolve.py). Whole-plan figures, with replacement where
 the search fails: benchmarks/RESULTS.md.
 
 The collision test on the step clock, and why the merged plan stays collision-free:

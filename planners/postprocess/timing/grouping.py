@@ -70,7 +70,7 @@ def _clearance_at(ptr, steps, angles, base_xy, i, j, s, alpha_len, seg_start, se
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def _pair_clearance_below(ptr, steps, angles, n_steps, base_xy, pairs, alpha_len, seg_start,
+def pair_clearance_below(ptr, steps, angles, n_steps, base_xy, pairs, alpha_len, seg_start,
                           seg_end, buffer, mu, margin):
     """Per pair: the smallest clearance found before it drops below ``margin`` (mm).
 
@@ -137,7 +137,7 @@ def interaction_pairs(plan, geom, margin_mm: float) -> tuple[np.ndarray, np.ndar
     alpha_len, seg_start, seg_end = _robot_arrays(geom)
     r = np.maximum(seg_end, seg_start)
     mu = (alpha_len + 2.0 * r) * plan.step_deg * DEG
-    cl = _pair_clearance_below(np.ascontiguousarray(plan.path_ptr, dtype=np.int64),
+    cl = pair_clearance_below(np.ascontiguousarray(plan.path_ptr, dtype=np.int64),
                                np.ascontiguousarray(plan.path_step, dtype=np.float64),
                                np.ascontiguousarray(plan.path_angles, dtype=np.float64),
                                float(plan.n_steps), geom.base_xy, pairs, alpha_len, seg_start,
@@ -189,4 +189,4 @@ def interaction_groups(n: int, edges: np.ndarray) -> np.ndarray:
 
 
 # called from Python once the planner has run (loaded ahead from numba's cache)
-warm_up(DELIVERY, _pair_clearance_below)
+warm_up(DELIVERY, pair_clearance_below)

@@ -364,7 +364,7 @@ def edges_forbidden(q0s, q1s, step, bx, by, l_alpha, s0, s1, limits, st_seg, st_
                     pt_th, out, counts):
     """:func:`static_collisions` along straight edges: ``out[e]`` is True when a point
     of edge ``q0s[e] -> q1s[e]`` ((E, 2) deg each) is forbidden, the points being those
-    of :func:`rfp_twin.planners.roadmap.graph._edge_samples` at most ``step`` (2,) deg
+    of :func:`rfp_twin.planners.roadmap.graph.edge_samples` at most ``step`` (2,) deg
     apart per joint (ends included, as ``np.linspace`` places them); an edge stops at its
     first forbidden point. ``counts[e]``: the edge's number of points (E,) int64.
 

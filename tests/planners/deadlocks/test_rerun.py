@@ -332,7 +332,7 @@ def test_the_cap_counts_from_the_last_arrival_not_from_the_stuck_robots_moves():
 def test_whole_array_attempts_overlap_only_once_the_caller_waits():
     """Before ``idle`` is set the patches use the other core: whole-array attempts run one
     at a time; after it, attempt k + 1 runs beside attempt k (same results either way)."""
-    from rfp_twin.planners.deadlocks.rerun import _ladder
+    from rfp_twin.planners.deadlocks.rerun import attempt_ladder
 
     live = [0]
     peak = []
@@ -355,7 +355,7 @@ def test_whole_array_attempts_overlap_only_once_the_caller_waits():
         idle = threading.Event()
         if idle_set:
             idle.set()
-        best, made, blocked, closest = _ladder(own, None, MOVABLE, PAIRS, _paths(first), {}, run,
+        best, made, blocked, closest = attempt_ladder(own, None, MOVABLE, PAIRS, _paths(first), {}, run,
                                                GOAL, 50, 55, 0, len(LADDER), idle=idle)
         assert best is None and closest is None and made == PATIENCE
         assert max(peak) == most

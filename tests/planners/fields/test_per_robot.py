@@ -16,7 +16,7 @@ from rfp_twin.planners.fields import ApfSettings, CapfSettings, default_margin_m
     random_tip_configs
 from rfp_twin.planners.fields.driver import tip_positions
 from rfp_twin.planners.fields.field import obstacle_distance, pair_distance, arm_poses
-from rfp_twin.planners.fields.tips import _assign_tips
+from rfp_twin.planners.fields.tips import assign_tips
 from tests.planners.fields.cases import DESI, SDSS, tips
 
 SEG = ApfSettings(model="segment")
@@ -124,7 +124,7 @@ def test_tip_separation_uses_each_robots_alpha_length():
     results = []
     for la0 in (4.5, 3.0):
         out = np.array([[0.0, 0.0], [180.0, 0.0]])
-        results.append(_assign_tips(base, pool, fixed, out, nbr_ptr, nbr_idx, *no_fid,
+        results.append(assign_tips(base, pool, fixed, out, nbr_ptr, nbr_idx, *no_fid,
                                     np.array([la0, 3.0]), 3.0, 2.0, np.zeros(0)))
     assert results == [-1, 0]
 

@@ -95,9 +95,9 @@ def test_random_targets_on_a_calibrated_instrument_use_each_robots_own_reach():
     assert np.all(r <= outer + 1e-9) and np.all(r >= met[:, 0] - geom.alpha_len - 1e-9)
     # the draws fill each robot's own annulus: the longest arm reaches past the nominal rim,
     # the shortest never gets there
-    from rfp_twin.planners.plan.targets import _patrol_sampler
+    from rfp_twin.planners.plan.targets import patrol_sampler
     ends = np.array([np.argmax(outer), np.argmin(outer)])
-    draws = _patrol_sampler(geom)(np.random.default_rng(0), ends, 20000)
+    draws = patrol_sampler(geom)(np.random.default_rng(0), ends, 20000)
     for k, d in zip(ends, draws):
         rr = np.hypot(*(forward_fiber(np.zeros((len(d), 2)), d, np.full(len(d), geom.alpha_len[k]),
                                       np.broadcast_to(met[k], (len(d), 2)))).T)

@@ -98,28 +98,28 @@ def test_early_parked_arm_stays_clear_until_the_arm_before_it_has_passed():
 
 def test_leaving_the_lead_in_at_once_can_be_left_out():
     """``depart_at_start=False`` drops only the t_start departure; the others stay."""
-    from rfp_twin.planners.roadmap.planner import _departures
+    from rfp_twin.planners.roadmap.planner import departure_times
     from rfp_twin.planners.roadmap.arm import SearchStats
 
     lead = (np.array([0.0, 30.0]), np.array([[0.0], [3.0]]))
     arm = line_arm(lambda q, t: np.zeros(len(q), bool), t_static=5.0, lead_in=lead)
-    every = _departures(arm, direct_only(n_stop=None), SearchStats())
-    later = _departures(arm, direct_only(n_stop=None, depart_at_start=False), SearchStats())
+    every = departure_times(arm, direct_only(n_stop=None), SearchStats())
+    later = departure_times(arm, direct_only(n_stop=None, depart_at_start=False), SearchStats())
     assert len(every) == 4 and every[-1] == arm.t_start and every[0] == 30.0
     assert later == every[:-1]
     # a lead-in blocked after its first step leaves t_start as the only departure: kept
     blocked = line_arm(lambda q, t: np.asarray(t) >= 1.0, t_static=5.0, lead_in=lead)
-    assert _departures(blocked, direct_only(n_stop=None, depart_at_start=False),
+    assert departure_times(blocked, direct_only(n_stop=None, depart_at_start=False),
                        SearchStats()) == [arm.t_start]
 
 
 def test_candidate_paths_lose_their_zero_length_edges_and_keep_their_order():
-    """``_candidates`` drops a vertex that repeats the one before it in its path (a
+    """``candidate_paths`` drops a vertex that repeats the one before it in its path (a
     vertex on the start or goal), a block of paths at a time: the same paths as cleaning
     each path alone, in roadmap order, cut at ``max_path_time`` and ``max_paths``."""
     from dataclasses import replace as with_
     from rfp_twin.planners.roadmap.graph import Roadmap
-    from rfp_twin.planners.roadmap.planner import _candidates
+    from rfp_twin.planners.roadmap.planner import candidate_paths
 
     rng = np.random.default_rng(3)
     paths = []
@@ -147,10 +147,10 @@ def test_candidate_paths_lose_their_zero_length_edges_and_keep_their_order():
 
     roadmap = Roadmap(np.zeros((0, 2)), np.zeros((0, 2), dtype=np.int64), paths, times)
     settings = RoadmapSettings(max_paths=120, max_path_time=100.5)
-    got = list(_candidates(roadmap, settings, Everything()))
+    got = list(candidate_paths(roadmap, settings, Everything()))
     want = [alone(p) for p in paths[:101]]
     assert len(got) == 101
     for g, w in zip(got, want):
         np.testing.assert_array_equal(g, w)
-    got = list(_candidates(roadmap, with_(settings, max_path_time=None), Everything()))
+    got = list(candidate_paths(roadmap, with_(settings, max_path_time=None), Everything()))
     assert len(got) == 120

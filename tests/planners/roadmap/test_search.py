@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from rfp_twin.planners.roadmap import RoadmapSettings, plan_arm
-from rfp_twin.planners.roadmap.search import _neighbour_actions
+from rfp_twin.planners.roadmap.search import neighbour_actions
 from tests.planners.roadmap.toys import (RNG, actions, direct_only, fig10_world, line_arm, region,
                                          union, vertex_trap)
 
@@ -14,19 +14,19 @@ from tests.planners.roadmap.toys import (RNG, actions, direct_only, fig10_world,
 # --- actions and start-stop cycles (Algorithms 5-6) --------------------------------------
 def test_neighbours_order_and_cycle_counting():
     # Neigh-DF: backward, stop, forward (popped last-in first: forward is tried first)
-    assert [m for m, _ in _neighbour_actions(0, 0, None)] == [-1, 0, 1]
+    assert [m for m, _ in neighbour_actions(0, 0, None)] == [-1, 0, 1]
     # starting from a stop is free; changing a motion counts one cycle (Fig. 8b)
-    assert _neighbour_actions(0, 0, 2) == [(-1, 0), (0, 0), (1, 0)]
-    assert _neighbour_actions(0, 1, 2) == [(-1, 1), (0, 1), (1, 0)]
-    assert _neighbour_actions(1, -1, 2) == [(-1, 1), (0, 2), (1, 2)]
+    assert neighbour_actions(0, 0, 2) == [(-1, 0), (0, 0), (1, 0)]
+    assert neighbour_actions(0, 1, 2) == [(-1, 1), (0, 1), (1, 0)]
+    assert neighbour_actions(1, -1, 2) == [(-1, 1), (0, 2), (1, 2)]
 
 
 def test_neigh_maxns_erratum_forward_neighbour_moves():
     """Sabater 2018 Algorithm 6 line 6 labels the forward neighbour of a stopped node with
     m = 0; fixed: it takes m = +1 (and keeps moving until the edge end)."""
-    assert _neighbour_actions(1, 0, 1) == [(0, 1), (1, 1)]
-    assert _neighbour_actions(1, 1, 1) == [(1, 1)]      # a moving arm keeps moving
-    assert _neighbour_actions(1, -1, 1) == [(-1, 1)]
+    assert neighbour_actions(1, 0, 1) == [(0, 1), (1, 1)]
+    assert neighbour_actions(1, 1, 1) == [(1, 1)]      # a moving arm keeps moving
+    assert neighbour_actions(1, -1, 1) == [(-1, 1)]
 
 
 def test_fig8b_forward_stop_forward_counts_one_cycle():

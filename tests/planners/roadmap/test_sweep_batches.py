@@ -110,9 +110,9 @@ def test_compress_keeps_the_breakpoints_the_reference_rule_keeps():
 
 def test_edges_checked_together_get_the_answers_of_one_at_a_time():
     """The world's arm checks many straight edges in one call (``edges_forbidden``): the
-    same answer per edge as sampling it (``_edge_samples``) and asking ``forbidden``,
+    same answer per edge as sampling it (``edge_samples``) and asking ``forbidden``,
     with a parked neighbour as a static obstacle and edges past the joint limits."""
-    from rfp_twin.planners.roadmap.graph import EdgeFeasibility, _edge_samples
+    from rfp_twin.planners.roadmap.graph import EdgeFeasibility, edge_samples
     from tests.planners.roadmap.alpha_beta.test_world import intrusion
 
     geom, md, c, right, reach, fold, paths = intrusion()
@@ -125,10 +125,10 @@ def test_edges_checked_together_get_the_answers_of_one_at_a_time():
     q1 = rng.uniform([-20.0, -20.0], [380.0, 200.0], size=(300, 2))
     q1[:20] = q0[:20]                                     # zero-length edges
     step = np.array([0.5, 0.5])
-    want = np.array([bool(np.any(arm.forbidden(_edge_samples(a, b, step)))) for a, b in zip(q0, q1)])
+    want = np.array([bool(np.any(arm.forbidden(edge_samples(a, b, step)))) for a, b in zip(q0, q1)])
     got, counts = arm.edges_forbidden(q0, q1, step)
     assert got.tolist() == want.tolist() and 0 < want.sum() < want.size
-    assert counts.tolist() == [len(_edge_samples(a, b, step)) for a, b in zip(q0, q1)]
+    assert counts.tolist() == [len(edge_samples(a, b, step)) for a, b in zip(q0, q1)]
     feasible = EdgeFeasibility(replace(arm, edge_memo={}), step)
     feasible.prefetch([np.stack([a, b]) for a, b in zip(q0, q1)])
     assert [feasible.ok(a, b) for a, b in zip(q0, q1)] == (~want).tolist()
