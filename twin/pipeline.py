@@ -92,8 +92,9 @@ class PlanOptions:
         "state-time planner on every robot; slow: minutes on 500 robots) | apf (Makarem "
         "2014 navigation function) | capf (Macktoobian 2019)"))
     step_deg: float = _planner("step_deg")
-    greed: float = _planner("greed")
-    phobia: float = _planner("phobia")
+    greed: float | None = _planner("greed")
+    phobia: float | None = _planner("phobia")
+    tries: int = _planner("tries")
     direction: str = _planner("direction")
     resolve: str = _planner("resolve", choices=RESOLUTIONS, help=(
         option_info(PlannerSettings, "resolve").help + " | none"))
@@ -125,7 +126,7 @@ class PlanOptions:
 
     @property
     def stepwise(self) -> bool:
-        """True for the stepwise planners (greedy, markov, roadmap)."""
+        """True for the stepwise planners (greedy, markov, mdp2, roadmap)."""
         return self.algorithm in ALGORITHMS
 
     def planner_settings(self) -> PlannerSettings:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rfp_twin.models.errors import KindError, RfpError, TargetError
+from rfp_twin.models.errors import KindError, LayoutError, RfpError
 from rfp_twin.models.kinds import MIRADAS_PROBE, load_kind
 from rfp_twin.planners.plan.kinds import require_planner_kind
 from rfp_twin.planners.roadmap.probe import (ProbePlan, ProbePlanSettings, plan_probe_arms,
@@ -63,7 +63,7 @@ def plan_probe_bench(preset: str = "miradas-probe", layout: str | None = None, *
                         f"{MIRADAS_PROBE!r} (alpha/beta arrays: rfp-twin plan)")
     if layout is not None:
         if not layout.startswith("miradas-"):
-            raise TargetError(f"--layout {layout!r}; allowed for probe arms: miradas-N")
+            raise LayoutError(f"--layout {layout!r}; allowed for probe arms: miradas-N")
         from rfp_twin.models.kinds import ProbeArmKind
         from rfp_twin.models.layout import layout_by_name
 

@@ -146,7 +146,15 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", default="1-5")
     ap.add_argument("--algorithms", default="mdp2,greedy")
     ap.add_argument("--out", type=Path, default=None, help="JSON of every run and the summary")
+    ap.add_argument("--summarize", type=Path, nargs="+", default=None,
+                    help="only summarise the runs of earlier --out files (their seeds and "
+                         "instruments pooled per instrument and algorithm)")
     args = ap.parse_args(argv)
+    if args.summarize:
+        runs = [r for f in args.summarize for r in json.loads(f.read_text())["runs"]]
+        report({"runs": runs, "summary": {}}, sorted({r["instrument"] for r in runs}),
+               sorted({r["algorithm"] for r in runs}))
+        return 0
     spec = load_spec("sdss-v-production")
     result = {"command": "python benchmarks/kaiju/bench_vs_kaiju.py " + " ".join(argv or sys.argv[1:]),
               "runs": [], "summary": {}}
@@ -175,9 +183,21 @@ def main(argv=None) -> int:
                     tmp = args.out.with_suffix(".tmp")
                     tmp.write_text(json.dumps(result, indent=1))
                     tmp.replace(args.out)
-    for inst in args.instruments.split(","):
-        for alg in args.algorithms.split(","):
+    report(result, args.instruments.split(","), args.algorithms.split(","))
+    if args.out:
+        tmp = args.out.with_suffix(".tmp")
+        tmp.write_text(json.dumps(result, indent=1))
+        tmp.replace(args.out)
+    return 0
+
+
+def report(result: dict, instruments: list[str], algorithms: list[str]) -> None:
+    """Summaries per instrument and algorithm into ``result["summary"]``, printed."""
+    for inst in instruments:
+        for alg in algorithms:
             rows = [r for r in result["runs"] if r["instrument"] == inst and r["algorithm"] == alg]
+            if not rows:
+                continue
             s = summarize(rows)
             result["summary"][f"{inst}-{alg}"] = s
             print(f"{inst} {alg}: {s['n']} seeds; kaiju median {s['kaiju_s'][1]:.3f} s, ours "
@@ -188,11 +208,10 @@ def main(argv=None) -> int:
                               + (f" (MWU p {s[key]['mannwhitneyu_p']:.2f}, KS p "
                                  f"{s[key]['ks_2samp_p']:.2f})" if "mannwhitneyu_p" in s[key] else "")
                               for key in ("n_steps", "tries")))
-    if args.out:
-        tmp = args.out.with_suffix(".tmp")
-        tmp.write_text(json.dumps(result, indent=1))
-        tmp.replace(args.out)
-    return 0
+            cpu_k = np.median([r["kaiju"]["cpu_s"] for r in rows])
+            cpu_o = np.median([r["ours"]["cpu_s"] for r in rows])
+            s["cpu_ratio_of_medians"] = float(cpu_k / cpu_o)
+            print(f"    CPU seconds: kaiju median {cpu_k:.3f}, ours {cpu_o:.4f}: {cpu_k / cpu_o:.1f}x")
 
 
 if __name__ == "__main__":

@@ -249,12 +249,18 @@ def main(argv=None) -> int:
             for inst in args.instruments.split(","):
                 for s in _seeds(args.seeds):
                     runs.append((inst, alg, s))
-    results = []
+    # an earlier --out file is resumed: its runs are kept and not checked again
+    results = json.loads(args.out.read_text()) if args.out and args.out.is_file() else []
+    done = {r["run"] for r in results}
     for item in runs:
         if isinstance(item, tuple):
             inst, alg, s = item
-            item = plan_run(inst, alg, s, args.work / f"{inst}-{alg}-{s}{'-raw' if args.raw else ''}",
-                            args.raw)
+            item = args.work / f"{inst}-{alg}-{s}{'-raw' if args.raw else ''}"
+            if str(item) in done:
+                continue
+            plan_run(inst, alg, s, item, args.raw)
+        elif str(item) in done:
+            continue
         r = compare(Path(item), args.dt)
         results.append(r)
         print(f"{r['layout']:>14} {r['algorithm']:>7} seed {r['seed']!s:>3}: kaiju violations "

@@ -1,6 +1,6 @@
 """Which robot kinds each planner supports, in one place.
 
-GC/MC (greedy, markov; Sayres 2021) and the potential fields (apf, capf; Makarem 2014,
+GC/MC (greedy, markov; Sayres 2021), MDP2 (SDSS-V's production generator) and the potential fields (apf, capf; Makarem 2014,
 Macktoobian 2019) are written for alpha/beta positioners; the prioritized state-time
 search on roadmaps (roadmap; Sabater 2018) reaches the robot only through
 ``forbidden(q)`` and ``collides(q, t)`` and runs on every kind (alpha/beta arrays through
@@ -14,6 +14,7 @@ from rfp_twin.models.kinds import ALPHA_BETA, MIRADAS_PROBE, require_kind
 PLANNER_KINDS = {
     "greedy": (ALPHA_BETA,),
     "markov": (ALPHA_BETA,),
+    "mdp2": (ALPHA_BETA,),
     "roadmap": (ALPHA_BETA, MIRADAS_PROBE),
     "apf": (ALPHA_BETA,),
     "capf": (ALPHA_BETA,),

@@ -95,6 +95,8 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
     metrics = {"convergence": convergence, "rounds": rounds, "tau_pg_s": tau_pg,
                "tau_sr_s": sum(r.seconds for r in runs) + path_generation_seconds(records),
                "pg_retries": sum(r.retries for r in runs)}
+    if settings.algorithm == "mdp2":
+        metrics["mdp2_tries"] = runs[0].tries       # of the first round's run
     return _plan(rnd, records, metrics, clock)
 
 
@@ -117,7 +119,7 @@ def _convergence(rnd: Round, resolve: bool) -> float:
     s, stuck, n_mov = rnd.settings, int(rnd.stuck.sum()), int(rnd.movable.sum())
     if resolve and stuck > MAX_STUCK_FRACTION * max(1, n_mov):
         raise PlanningError(
-            ("greedy" if s.greedy else f"markov (greed {s.greed:g}, phobia {s.phobia:g})")
+            ("greedy" if s.greedy else f"{s.algorithm} (greed {s.greed:g}, phobia {s.phobia:g})")
             + f": {stuck} of {n_mov} robots did not reach their destination in "
             f"{rnd.run.n_steps} steps; deadlock resolution handles groups, not most of the "
             f"array; allowed: at most {MAX_STUCK_FRACTION:.0%} stuck (a lower phobia, e.g. "
@@ -143,6 +145,7 @@ def _plan(rnd: Round, records: list[Record], runs_metrics: dict, clock: float) -
         "fold_time_s": n_steps * spec.step_seconds(settings.step_deg), "n_steps": n_steps,
         "max_displacement_mm": rnd.md,
         **resolution_metrics(records, rnd.search),
+        **{k: runs_metrics[k] for k in ("mdp2_tries",) if k in runs_metrics},
         "planning_s": time.perf_counter() - clock,
     }
     plan = Plan(robot_ids=geom.robot_ids.copy(), step_deg=settings.step_deg,

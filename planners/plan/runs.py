@@ -1,6 +1,7 @@
 """One planner run of the whole array: :func:`run_once`.
 
-The stepwise kernel (:func:`rfp_twin.planners.stepwise.run_array`, greedy or Markov), or
+The stepwise kernel (:func:`rfp_twin.planners.stepwise.run_array`, greedy or Markov),
+MDP2 (:func:`rfp_twin.planners.stepwise.mdp2_run.run_mdp2`, its tries in one run), or
 for ``algorithm="roadmap"`` one prioritized roadmap pass
 (:func:`rfp_twin.planners.roadmap.alpha_beta.array.roadmap_pass`), as a
 :class:`rfp_twin.planners.stepwise.StepRun` in the planning frame. The driver makes the
@@ -16,6 +17,7 @@ import numpy as np
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.planners.plan.settings import PlannerSettings
 from rfp_twin.planners.stepwise import StepRun, array_max_displacement, run_array
+from rfp_twin.planners.stepwise.mdp2_run import run_mdp2
 
 
 def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: np.ndarray,
@@ -26,6 +28,10 @@ def run_once(geom: ArrayGeometry, start: np.ndarray, dest: np.ndarray, movable: 
     md = array_max_displacement(geom, settings.step_deg)
     if settings.algorithm == "roadmap":
         return run_roadmap(geom, start, dest, movable, settings, md, seed)
+    if settings.algorithm == "mdp2":
+        return run_mdp2(geom, start, dest, movable, step_deg=settings.step_deg,
+                        max_steps=settings.steps_limit, md=md, seed=seed, greed=settings.greed,
+                        phobia=settings.phobia, tries=settings.tries)
     return run_array(geom, start, dest, movable, step_deg=settings.step_deg,
                      max_steps=settings.steps_limit, md=md,
                      greed=1.0 if settings.greedy else settings.greed,

@@ -12,7 +12,10 @@ from rfp_twin.models.options import check_options, option
 if TYPE_CHECKING:
     from rfp_twin.planners.roadmap.alpha_beta import SearchResolveSettings
 
-ALGORITHMS = ("greedy", "markov", "roadmap")
+ALGORITHMS = ("greedy", "markov", "mdp2", "roadmap")
+#: (greed, phobia) when not given: the paper's MC setting for markov, SDSS-V's production
+#: one (jaeger's configuration of kaiju's MDP2) for mdp2.
+DEFAULT_GREED_PHOBIA = {"markov": (0.9, 0.3), "mdp2": (0.7, 0.6)}
 DIRECTIONS = ("reverse", "forward")
 RESOLVERS = ("search", "replace")
 
@@ -23,12 +26,17 @@ class PlannerSettings:
     (:func:`rfp_twin.models.options.option`; the CLI and ``PlanOptions`` read them from
     here). ``search`` holds the state-time search's own options (None: defaults)."""
 
-    algorithm: str = option("greedy", "greedy | markov (stepwise, Sayres 2021) | roadmap "
-                            "(Sabater 2018 prioritized state-time planner on every robot; slow: "
-                            "minutes on 500 robots)", choices=ALGORITHMS)
+    algorithm: str = option("greedy", "greedy | markov (stepwise, Sayres 2021) | mdp2 (SDSS-V's "
+                            "production generator, kaiju's MDP2) | roadmap (Sabater 2018 "
+                            "prioritized state-time planner on every robot; slow: minutes on "
+                            "500 robots)", choices=ALGORITHMS)
     step_deg: float = option(0.1, "Angular step", unit="deg", lo=0.001, hi=10.0)
-    greed: float = option(0.9, "Markov greed", lo=0.0, hi=1.0)
-    phobia: float = option(0.3, "Markov phobia", lo=0.0, hi=1.0)
+    greed: float | None = option(None, "Markov / MDP2 greed [default: markov 0.9, mdp2 0.7]",
+                                 lo=0.0, hi=1.0)
+    phobia: float | None = option(None, "Markov / MDP2 phobia [default: markov 0.3, mdp2 0.6]",
+                                  lo=0.0, hi=1.0)
+    tries: int = option(5, "mdp2: tries, each from the start after the most folded stuck "
+                        "robot is nudged", lo=1)
     direction: str = option("reverse", "reverse (targets -> fold, played backwards) | forward",
                             choices=DIRECTIONS)
     max_steps: int | None = option(None, "Step limit [default: 1000 deg / step]", lo=1)
@@ -56,6 +64,10 @@ class PlannerSettings:
                                "robots arrive sooner", lo=0)
 
     def __post_init__(self) -> None:
+        defaults = DEFAULT_GREED_PHOBIA.get(self.algorithm, DEFAULT_GREED_PHOBIA["markov"])
+        for name, default in zip(("greed", "phobia"), defaults):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, default)
         check_options(self)
 
     @property

@@ -147,8 +147,9 @@ def plan(
     if flow == "jaeger":
         from rfp_twin.twin.cli.flow import run_jaeger_flow
 
-        return run_jaeger_flow(rc, seed, tg, out, force, algorithm=algorithm, greed=greed,
-                               phobia=phobia, step=step)
+        chosen = options.planner_settings()
+        return run_jaeger_flow(rc, seed, tg, out, force, algorithm=algorithm, greed=chosen.greed,
+                               phobia=chosen.phobia, step=step)
     t_setup = time.perf_counter()
     n, rounds = rc.geom.n_robots, options.max_rounds + 1
     with progress_bar("planning", "{task.completed}/{task.total}") as progress:

@@ -1,0 +1,28 @@
+"""``--algorithm mdp2`` through the one pipeline: production defaults, a checked plan."""
+from __future__ import annotations
+
+import pytest
+
+from rfp_twin.models.errors import SpecError
+from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
+from rfp_twin.validation.checker2d import check_trajectory
+
+
+def test_mdp2_takes_the_production_parameters_and_delivers_a_checked_plan():
+    options = PlanOptions(algorithm="mdp2")
+    settings = options.planner_settings()
+    assert (settings.greed, settings.phobia, settings.tries) == (0.7, 0.6, 5)
+    assert PlanOptions(algorithm="markov").planner_settings().greed == 0.9
+    rc = Reconfiguration.from_names("sdss-v-production", "hex:37", options=options)
+    out = rc.run(seed=2)
+    assert out.ok and out.n_deadlocked == 0
+    again = check_trajectory(out.trajectory, rc.spec, rc.layout, out.post.verify_buffer_mm)
+    assert again.ok
+    summary = out.summary()
+    assert (summary["algorithm"], summary["greed"], summary["phobia"]) == ("mdp2", 0.7, 0.6)
+    assert summary["metrics"]["mdp2_tries"] >= 1
+
+
+def test_mdp2_tries_out_of_range_is_refused():
+    with pytest.raises(SpecError, match="field 'tries' = 0"):
+        PlanOptions(algorithm="mdp2", tries=0)
