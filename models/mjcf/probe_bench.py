@@ -31,6 +31,11 @@ SERVO_ZETA = 1.0
 TIMESTEP_S = 0.002
 #: Height of the arms' plane above the bench, mm (visual).
 PLANE_Z_MM = 20.0
+#: Colours (rgba) of the parts.
+RGBA = {"link": [0.3, 0.4, 0.6, 1.0], "cabinet": [0.55, 0.55, 0.6, 1.0],
+        "tube": [0.85, 0.85, 0.8, 1.0], "head": [0.9, 0.6, 0.15, 1.0]}
+#: Largest offscreen frame (pixels a side) the model allows a renderer.
+OFFSCREEN_PX = 1920
 #: Joint names of arm k: f"a{k}_{part}".
 PARTS = ("crank", "rocker", "tube", "sleeve")
 
@@ -96,6 +101,7 @@ def build_probe_bench(kind: ProbeArmKind) -> ProbeBench:
     ms.compiler.degree = False
     ms.option.timestep = TIMESTEP_S
     ms.option.gravity = [0.0, 0.0, -9810.0]
+    ms.visual.global_.offwidth, ms.visual.global_.offheight = OFFSCREEN_PX, OFFSCREEN_PX
     ms.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[s.bench_radius_mm + 150, 2, 0],
                           pos=[0, 0, -2], rgba=[0.15, 0.15, 0.17, 1], contype=0, conaffinity=0)
     park = joint_positions(kind, np.array(s.park_deg))[0]
@@ -109,7 +115,7 @@ def build_probe_bench(kind: ProbeArmKind) -> ProbeBench:
         crank.add_joint(name=arm_name(k, "crank"), type=hinge, axis=[0, 0, 1], ref=float(park[0]),
                         damping=0.0, armature=1e3)
         crank.add_geom(name=arm_name(k, "crank_c"), type=cap, fromto=[0, 0, 0, s.d13_mm, 0, 0],
-                       size=[s.link_radius_mm, 0, 0], mass=MASS_KG["crank"])
+                       size=[s.link_radius_mm, 0, 0], mass=MASS_KG["crank"], rgba=RGBA["link"])
         tube = crank.add_body(name=arm_name(k, "tube"), pos=[s.d13_mm, 0, 0],
                               quat=_quat_z(float(park[2])))
         tube.add_joint(name=arm_name(k, "tube"), type=hinge, axis=[0, 0, 1], ref=float(park[2]))
@@ -118,7 +124,7 @@ def build_probe_bench(kind: ProbeArmKind) -> ProbeBench:
                                  ("tube", 0.0, head0, s.tube_radius_mm, 0.4),
                                  ("head", head0, s.d3tip_mm, s.head_radius_mm, 0.1)):
             tube.add_geom(name=arm_name(k, part), type=cap, fromto=[a, 0, 0, b, 0, 0],
-                          size=[r, 0, 0], mass=m)
+                          size=[r, 0, 0], mass=m, rgba=RGBA[part])
         tube.add_site(name=arm_name(k, "tip"), pos=[s.d3tip_mm, 0, 0], size=[2, 0, 0])
         sleeve = tube.add_body(name=arm_name(k, "sleeve"), pos=[float(park[3]), 0, 0])
         sleeve.add_joint(name=arm_name(k, "sleeve"), type=slide, axis=[1, 0, 0],
@@ -130,7 +136,7 @@ def build_probe_bench(kind: ProbeArmKind) -> ProbeBench:
         rocker.add_joint(name=arm_name(k, "rocker"), type=hinge, axis=[0, 0, 1], ref=float(park[1]),
                          armature=1e3)
         rocker.add_geom(name=arm_name(k, "rocker_c"), type=cap, fromto=[0, 0, 0, s.d24_mm, 0, 0],
-                        size=[s.link_radius_mm, 0, 0], mass=MASS_KG["rocker"])
+                        size=[s.link_radius_mm, 0, 0], mass=MASS_KG["rocker"], rgba=RGBA["link"])
         eq = ms.add_equality(name=arm_name(k, "loop"), type=mujoco.mjtEq.mjEQ_CONNECT,
                              objtype=mujoco.mjtObj.mjOBJ_BODY, name1=arm_name(k, "rocker"),
                              name2=arm_name(k, "sleeve"))
