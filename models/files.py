@@ -3,12 +3,14 @@
 A reader (or a crash) never sees a half-written file: the content is flushed to disk
 before ``os.replace`` puts it in place, an existing file is replaced only once the new
 content is complete, and on any error the temp file is removed and the target left as
-it was.
+it was. :func:`atomic_folder` does the same for a whole folder.
 """
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 
@@ -38,3 +40,30 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
 def atomic_write_text(path: str | Path, text: str) -> None:
     """Write UTF-8 ``text`` to ``path`` atomically (see :func:`atomic_write_bytes`)."""
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+@contextmanager
+def atomic_folder(out: str | Path):
+    """Write a whole folder atomically: yields a temp folder beside ``out`` to fill; when
+    the block ends without error its files get mode 0644, it gets 0755 and it replaces
+    ``out`` (an existing ``out`` is moved aside first and removed after); on any error the
+    temp folder is removed and ``out`` left as it was. The caller decides beforehand
+    whether an existing ``out`` may be replaced."""
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        yield tmp
+        for f in tmp.iterdir():
+            f.chmod(0o644)
+        tmp.chmod(0o755)
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
+            os.replace(out, old / "run")
+            os.replace(tmp, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

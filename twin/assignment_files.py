@@ -13,14 +13,12 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from rfp_twin.models.catalogue import KINDS
+from rfp_twin.models.files import atomic_folder
 from rfp_twin.twin.run_dir import check_output_folder
 
 ASSIGNMENT_CSV = "assignment.csv"
@@ -80,23 +78,9 @@ def write_assignment(out: Path, files: dict[str, str], overwrite: bool = False) 
     an existing ``out`` only with ``overwrite``)."""
     out = Path(out)
     check_output_folder(out, overwrite)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    with atomic_folder(out) as tmp:
         for name, text in files.items():
             (tmp / name).write_text(text, encoding="utf-8")
-            (tmp / name).chmod(0o644)
-        tmp.chmod(0o755)
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
-            os.replace(out, old / "run")
-            os.replace(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out
 
 

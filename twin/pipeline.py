@@ -32,6 +32,7 @@ from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.errors import KindError, PlanningError, RfpError
 from rfp_twin.models.kernel_cache import DELIVERY, preload_cached, warm_kernels
 from rfp_twin.models.layout import Layout, default_layout_name, layout_by_name
+from rfp_twin.models.options import declared, option, option_info, same_option
 from rfp_twin.models.kinds import ALPHA_BETA
 from rfp_twin.models.robot import RobotSpec, load_spec, preset_kind
 from rfp_twin.models.trajectory import Trajectory
@@ -73,57 +74,52 @@ def _choice(name: str, value: str, allowed: tuple[str, ...]) -> None:
         raise RfpError(f"{name} {value!r}; allowed: {', '.join(allowed)}")
 
 
+def _planner(name: str, **changes):
+    """A PlanOptions field declared as PlannerSettings' ``name`` (help, unit, range)."""
+    return same_option(PlannerSettings, name, **changes)
+
+
 @dataclass(frozen=True)
 class PlanOptions:
-    """How to plan and what to deliver (every option of ``rfp-twin plan``).
+    """How to plan and what to deliver: every option of ``rfp-twin plan``.
 
-    algorithm : greedy | markov | mdp2 | roadmap (stepwise, with deadlock resolution) | apf | capf
-    step_deg : angular step of the stepwise planners, deg
-    greed, phobia : Markov / MDP2 parameters in [0, 1] [default: markov 0.9 / 0.3, mdp2 the
-        production 0.7 / 0.6]
-    tries : mdp2: tries, each from the start after the most folded stuck robot is nudged
-    direction : reverse (targets -> fold, played backwards) | forward
-    resolve : search | replace | none (deadlocks left by the stepwise planners)
-    max_steps, max_rounds : step limit [default 1000 deg / step] and resolution rounds
-    reruns : with resolve=search and the greedy planner, local re-runs a deadlocked group
-        with greedy-first Markov robots around it, before the search (0: straight to it)
-    beta_first : robots whose alpha + beta travel is at most this fraction of the longest
-        alpha travel retract beta first (0: off; ``PlannerSettings.beta_first``)
-    fold_repairs : with beta_first, whole runs at most per round that free the robot
-        ending the run from the neighbour blocking it (``PlannerSettings.fold_repairs``)
-    apf_gain, lambda3 : field gain (1/s) and CAPF cooperative weight
-    raw : deliver the stepwise paths (constant speed, infinite acceleration), no
-        post-processing; they are checked at the planning buffer
-    budget_mm : buffer share of smoothing + simplification; trajectories are verified at
-        buffer - budget
-    max_points : most (angle, time) points per axis (firmware)
-    timing_backend : numba (our TOPP-RA kernel, default) | toppra (the library, a cross-check)
-    """
+    The stepwise planners' options are PlannerSettings' (declared there once, with help,
+    unit and range); the field planners' and the delivery's are declared here. The CLI
+    builds its options from these fields (:mod:`rfp_twin.twin.cli.options`)."""
 
-    algorithm: str = "greedy"
-    step_deg: float = 0.1
-    greed: float | None = None
-    phobia: float | None = None
-    tries: int = 5
-    direction: str = "reverse"
-    resolve: str = "search"
-    max_steps: int | None = None
-    max_rounds: int = 50
-    reruns: int = 8
-    beta_first: float = 0.0
-    fold_repairs: int = 12
-    apf_gain: float = 1.0
-    lambda3: float = 0.03
-    raw: bool = False
-    budget_mm: float = DEFAULT_BUDGET_MM
-    max_points: int = DEFAULT_MAX_POINTS
-    timing_backend: str = DEFAULT_BACKEND
+    algorithm: str = _planner("algorithm", choices=ALL_ALGORITHMS, help=(
+        "greedy | markov (stepwise, Sayres 2021) | roadmap (Sabater 2018 prioritized "
+        "state-time planner on every robot; slow: minutes on 500 robots) | apf (Makarem "
+        "2014 navigation function) | capf (Macktoobian 2019)"))
+    step_deg: float = _planner("step_deg")
+    greed: float | None = _planner("greed")
+    phobia: float | None = _planner("phobia")
+    tries: int = _planner("tries")
+    direction: str = _planner("direction")
+    resolve: str = _planner("resolve", choices=RESOLUTIONS, help=(
+        option_info(PlannerSettings, "resolve").help + " | none"))
+    max_steps: int | None = _planner("max_steps")
+    max_rounds: int = _planner("max_rounds")
+    reruns: int = _planner("reruns")
+    beta_first: float = _planner("beta_first")
+    fold_repairs: int = _planner("fold_repairs")
+    apf_gain: float = option(1.0, "apf/capf: field gain u = -gain J^T grad psi", unit="1/s")
+    lambda3: float = option(0.03, "capf: cooperative weight (Macktoobian Eq. 5)")
+    raw: bool = option(False, "Write the stepwise paths (constant speed, infinite "
+                       "acceleration) instead of firmware-ready trajectories; they are "
+                       "checked at the planning buffer")
+    budget_mm: float = option(DEFAULT_BUDGET_MM, "Buffer share of smoothing + simplification "
+                              "(Eq. 12); trajectories are verified at buffer - budget", unit="mm")
+    max_points: int = option(DEFAULT_MAX_POINTS, "Most (angle, time) points per axis "
+                             "(firmware)")
+    timing_backend: str = option(DEFAULT_BACKEND, "Time-optimal parametrisation: numba (our "
+                                 "kernel of TOPP-RA) | toppra (the library: the same laws, a "
+                                 "cross-check, ~10x slower)", choices=BACKENDS)
 
     def __post_init__(self) -> None:
-        _choice("--algorithm", self.algorithm, ALL_ALGORITHMS)
-        _choice("--resolve", self.resolve, RESOLUTIONS)
-        _choice("--direction", self.direction, DIRECTIONS)
-        _choice("--timing-backend", self.timing_backend, BACKENDS)
+        for name in ("algorithm", "resolve", "direction", "timing_backend"):
+            _choice("--" + name.replace("_", "-"), getattr(self, name),
+                    option_info(self, name).choices)
         self.planner_settings()   # range errors now, before anything is drawn or planned
         if not self.stepwise:
             self.field_settings()
@@ -135,13 +131,11 @@ class PlanOptions:
 
     def planner_settings(self) -> PlannerSettings:
         """The stepwise planner's settings (field planners: the greedy defaults, unused)."""
-        return PlannerSettings(algorithm=self.algorithm if self.stepwise else "greedy",
-                               step_deg=self.step_deg, greed=self.greed, phobia=self.phobia,
-                               tries=self.tries,
-                               direction=self.direction, max_steps=self.max_steps,
-                               max_rounds=self.max_rounds, reruns=self.reruns,
-                               beta_first=self.beta_first, fold_repairs=self.fold_repairs,
-                               resolve="replace" if self.resolve == "none" else self.resolve)
+        shared = {f.name: getattr(self, f.name) for f in declared(PlannerSettings)
+                  if f.name in self.__dataclass_fields__}
+        shared["algorithm"] = self.algorithm if self.stepwise else "greedy"
+        shared["resolve"] = "replace" if self.resolve == "none" else self.resolve
+        return PlannerSettings(**shared)
 
     def field_settings(self):
         """ApfSettings / CapfSettings on the beta segments (field planners only).

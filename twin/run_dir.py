@@ -26,14 +26,12 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from rfp_twin.models.errors import RfpError, TrajectoryError
+from rfp_twin.models.files import atomic_folder
 from rfp_twin.models.kinematics import forward, forward_fiber
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.layout.columns import (FIBER_COLUMNS, robot_column, robot_fibers,
@@ -129,9 +127,7 @@ def write_run(out: Path, *, spec: RobotSpec, layout: Layout, plan: Plan, traject
     """
     out = Path(out)
     check_output_folder(out, overwrite)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    with atomic_folder(out) as tmp:
         trajectory.to_json(tmp / TRAJECTORIES)
         trajectory.reversed().to_json(tmp / TRAJECTORIES_TO_FOLD)
         offsets = angle_offsets(layout)
@@ -148,19 +144,6 @@ def write_run(out: Path, *, spec: RobotSpec, layout: Layout, plan: Plan, traject
         (tmp / CHECK2D).write_text(json.dumps(check2d, default=_json_default), encoding="utf-8")
         for name, text in (extra or {}).items():
             (tmp / name).write_text(text, encoding="utf-8")
-        for f in tmp.iterdir():
-            f.chmod(0o644)
-        tmp.chmod(0o755)
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
-            os.replace(out, old / "run")
-            os.replace(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out
 
 

@@ -52,3 +52,22 @@ def test_a_missing_folder_raises_and_writes_nothing(tmp_path):
     with pytest.raises(FileNotFoundError):
         atomic_write_text(tmp_path / "missing" / "out.txt", "x")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_atomic_folder_replaces_whole_or_not_at_all(tmp_path):
+    from rfp_twin.models.files import atomic_folder
+
+    out = tmp_path / "run"
+    with atomic_folder(out) as tmp:
+        (tmp / "a.txt").write_text("one")
+    assert (out / "a.txt").read_text() == "one"
+    with pytest.raises(RuntimeError):
+        with atomic_folder(out) as tmp:
+            (tmp / "a.txt").write_text("two")
+            raise RuntimeError("half-written")
+    assert (out / "a.txt").read_text() == "one"                 # left as it was
+    with atomic_folder(out) as tmp:
+        (tmp / "b.txt").write_text("three")
+    assert sorted(p.name for p in out.iterdir()) == ["b.txt"]   # replaced whole
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no temp left
+    assert oct(out.stat().st_mode & 0o777) == "0o755"

@@ -14,6 +14,8 @@ from rich.table import Table
 
 from rfp_twin.models.errors import LayoutError, TargetError
 from rfp_twin.twin.cli.layout_option import CALIBRATION_HELP, LAYOUT_HELP, chosen_layout
+from rfp_twin.twin.cli.options import options_from, with_options
+from rfp_twin.twin.pipeline import PlanOptions
 from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, console, fail,
                                   one_line_errors, progress_bar)
 
@@ -43,7 +45,12 @@ def parse_offline(items: list[str], fold_deg: tuple[float, float]) -> dict[int, 
     return out
 
 
+#: CLI spellings of PlanOptions fields whose names carry their unit.
+PLAN_RENAME = {"step_deg": "step", "budget_mm": "budget"}
+
+
 @one_line_errors
+@with_options(PlanOptions, PLAN_RENAME)
 def plan(
     preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
     layout: Optional[str] = typer.Option(None, help=LAYOUT_HELP),
@@ -51,18 +58,6 @@ def plan(
     fiducials: str = typer.Option("", help="Comma-separated position ids that are fiducials "
                                   "(generated grids only)."),
     buffer: Optional[float] = typer.Option(None, help="Collision buffer sigma_cb, mm [default: preset]."),
-    step: float = typer.Option(0.1, help="Angular step, deg."),
-    algorithm: str = typer.Option("greedy", help="greedy | markov (stepwise, Sayres 2021) | mdp2 "
-                                  "(SDSS-V's production generator, kaiju's MDP2) | roadmap "
-                                  "(Sabater 2018 prioritized state-time planner on every robot; "
-                                  "slow: minutes on 500 robots) | apf (Makarem 2014 navigation "
-                                  "function) | capf (Macktoobian 2019)"),
-    greed: Optional[float] = typer.Option(None, help="Markov / MDP2 greed, [0, 1] [default: "
-                                          "markov 0.9, mdp2 0.7]."),
-    phobia: Optional[float] = typer.Option(None, help="Markov / MDP2 phobia, [0, 1] [default: "
-                                           "markov 0.3, mdp2 0.6]."),
-    tries: int = typer.Option(5, help="mdp2: tries, each from the targets again after the most "
-                              "folded stuck robot is nudged, >= 1."),
     seed: int = typer.Option(0, help="Seed of targets, Markov moves and replacements."),
     n_targets: Optional[int] = typer.Option(None, help="Probe-arm presets (miradas-probe): "
                                             "this many random targets drawn with --seed "
@@ -93,39 +88,13 @@ def plan(
                                        "region."),
     sectors: int = typer.Option(1, help="--catalogue: quota regions, equal angular sectors "
                                 "about the array's centre."),
-    direction: str = typer.Option("reverse", help="reverse (targets->fold, reversed) | forward"),
-    resolve: str = typer.Option("search", help="Deadlocks left by greedy/markov/roadmap: search "
-                                "(re-run with greedy-first Markov robots around the groups, then "
-                                "re-plan each group left by state-time search, keeping its "
-                                "targets; replace a target only where that fails) | replace (new "
-                                "target for one robot per group, Sayres 2021) | none."),
-    reruns: int = typer.Option(8, help="--resolve search, greedy: local re-runs a deadlocked group, "
-                               "greedy-first Markov robots around it, before the search, >= 0 "
-                               "(0: none)."),
-    beta_first: float = typer.Option(0.0, help="Robots whose alpha + beta travel is at most this "
-                                     "fraction of the longest alpha travel retract beta first, "
-                                     "leaving their neighbours room to turn; [0, 2], 0: off (the "
-                                     "paper's moves)."),
-    fold_repairs: int = typer.Option(12, help="With --beta-first: whole runs at most per round "
-                                     "that switch the rule of the robot blocking the last "
-                                     "robot, kept when robots arrive sooner; >= 0."),
-    apf_gain: float = typer.Option(1.0, help="apf/capf: field gain u = -gain J^T grad psi, 1/s."),
-    lambda3: float = typer.Option(0.03, help="capf: cooperative weight (Macktoobian Eq. 5)."),
-    max_steps: Optional[int] = typer.Option(None, help="Step limit [default: 1000 deg / step]."),
     out: Path = typer.Option(Path("out/plan"), help="Output folder (must not exist unless --force)."),
     force: bool = typer.Option(False, help="Replace an existing output folder."),
-    raw: bool = typer.Option(False, help="Write the stepwise paths (constant speed, infinite "
-                             "acceleration) instead of firmware-ready trajectories."),
-    budget: float = typer.Option(0.03, help="Buffer share of smoothing + simplification, mm "
-                                 "(Eq. 12); trajectories are verified at buffer - budget."),
-    max_points: int = typer.Option(1024, help="Most (angle, time) points per axis (firmware)."),
     flow: str = typer.Option("twin", help="twin (plan, resolve deadlocks, post-process: ours) | "
                              "jaeger (SDSS-V's controller: decollide, plan without resolution, "
                              "up to 5 retries that move a deadlocked robot's target, production "
                              "smoothing, no re-check; the result is checked here)."),
-    timing_backend: str = typer.Option("numba", help="Time-optimal parametrisation: numba (our "
-                                       "kernel of TOPP-RA) | toppra (the library: the same "
-                                       "laws, a cross-check, ~10x slower)."),
+    **option_values,
 ) -> None:
     """Plan a collision-free reconfiguration fold -> targets and write a run folder.
 
@@ -135,7 +104,7 @@ def plan(
     t_import = time.perf_counter()
     from rfp_twin.models.kinds import ALPHA_BETA
     from rfp_twin.models.robot import load_spec, preset_kind
-    from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
+    from rfp_twin.twin.pipeline import Reconfiguration
     from rfp_twin.twin.run_dir import check_output_folder
 
     check_output_folder(out, force)
@@ -146,12 +115,8 @@ def plan(
         return
 
     t_start = time.perf_counter()
-    options = PlanOptions(algorithm=algorithm, step_deg=step, greed=greed, phobia=phobia,
-                          tries=tries, direction=direction, resolve=resolve, reruns=reruns,
-                          max_steps=max_steps,
-                          beta_first=beta_first, fold_repairs=fold_repairs,
-                          apf_gain=apf_gain, lambda3=lambda3, raw=raw, budget_mm=budget,
-                          max_points=max_points, timing_backend=timing_backend)
+    options = options_from(PlanOptions, option_values, PLAN_RENAME)
+    algorithm, step = options.algorithm, options.step_deg
     spec = load_spec(preset)
     layout = chosen_layout(layout, calibration, spec)
     rc = Reconfiguration.from_names(spec, layout, buffer_mm=buffer,

@@ -19,6 +19,7 @@ from importlib import resources
 from pathlib import Path
 
 from rfp_twin.models.layout import hex_rings, nearest_hex_counts
+from rfp_twin.models.options import option_info
 from rfp_twin.models.robot import RobotSpec
 from rfp_twin.twin.studies.resolve import load_preset, resolve_point
 from rfp_twin.twin.studies.spec import (ALGORITHM_ALIASES, DIRECTIONS, GRID_DEFAULTS, GRID_KEYS,
@@ -207,14 +208,25 @@ def parse_study(text: str, source: str = "<study>", base_dir: str | Path | None 
                  families=tuple(f for f, _ in families if f is not None))
 
 
-#: Numeric grid keys: (low, high, low excluded, integer); None = unbounded.
+def _planner_range(name: str) -> tuple:
+    """A grid key's range as the planner declares it (PlannerSettings' option)."""
+    from dataclasses import fields
+
+    from rfp_twin.planners.plan import PlannerSettings
+
+    info = option_info(PlannerSettings, name)
+    kind = next(f.type for f in fields(PlannerSettings) if f.name == name)
+    return info.lo, info.hi, False, "int" in str(kind)
+
+
+#: Numeric grid keys: (low, high, low excluded, integer); None = unbounded. The planner's
+#: own options take the range PlannerSettings declares.
 _NUMERIC = {
     "fold_alpha_deg": (None, None, False, False), "fold_beta_deg": (None, None, False, False),
     "pitch_mm": (0.0, None, True, False), "alpha_length_mm": (0.0, None, True, False),
     "beta_length_mm": (0.0, None, True, False), "buffer_mm": (0.0, None, True, False),
-    "segment_end_mm": (0.0, None, False, False), "step_deg": (0.001, 10.0, False, False),
-    "greed": (0.0, 1.0, False, False), "phobia": (0.0, 1.0, False, False),
-    "max_rounds": (0, None, False, True), "max_steps": (1, None, False, True),
+    "segment_end_mm": (0.0, None, False, False),
+    **{k: _planner_range(k) for k in ("step_deg", "greed", "phobia", "max_rounds", "max_steps")},
     "arm_ratio": (0.0, None, True, False), "pitch_over_reach": (0.0, None, True, False),
     "n_rafts": (1, None, False, True),
 }
