@@ -111,7 +111,7 @@ def plan(
     if preset_kind(preset) != ALPHA_BETA:             # probe arms: their own planner
         from rfp_twin.twin.cli.probe import plan_probe_cli
 
-        plan_probe_cli(preset, layout, algorithm, seed, n_targets, out, force)
+        plan_probe_cli(preset, layout, option_values["algorithm"], seed, n_targets, out, force)
         return
 
     t_start = time.perf_counter()
