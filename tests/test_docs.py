@@ -36,9 +36,6 @@ TEXT_FOLDERS = ("docs",)
 
 #: "S1".."S19" standing alone ("Spec-S5" and identifiers such as ``S10`` are not labels).
 SESSION_TAG = re.compile(r"(?<![\w-])S1?\d(?![\w-])")
-#: Before a match, the design-study frontier's point tags ("kept S1", "tagged S1, S2",
-#: ``S1``): those name points of a figure, not a session.
-FRONTIER_TAG = re.compile(r"(?:kept |fold |tagged |``|\bS\d, )$")
 SESSION_WORDS = re.compile(r"\b(?:this|that|last|next|previous|same|each) session\b"
                            r"|\bsessions? \d+\b", re.IGNORECASE)
 
@@ -47,9 +44,7 @@ def session_labels(text: str) -> list[str]:
     """The session labels in ``text``: each as the line it stands on."""
     found = []
     for line in text.splitlines():
-        tags = [m for m in SESSION_TAG.finditer(line)
-                if not FRONTIER_TAG.search(line[:m.start()])]
-        if tags or SESSION_WORDS.search(line):
+        if SESSION_TAG.search(line) or SESSION_WORDS.search(line):
             found.append(line.strip())
     return found
 
@@ -85,8 +80,8 @@ def glance_rows() -> list[list[str]]:
 def test_session_label_scan_finds_labels_and_passes_the_rest():
     assert session_labels("the S16 code, 2.0 mm (S9: 1.1 s)") == ["the S16 code, 2.0 mm (S9: 1.1 s)"]
     assert session_labels("as measured this session") != []
-    assert session_labels("204 Spec-S5 rafts; tags ``S1``, ``R1``; kept S3, fold S3; "
-                          "tagged S1, S2, ... and R1; a Python session kept open") == []
+    assert session_labels("204 Spec-S5 rafts; frontier tags s1, r1; a Python session kept "
+                          "open") == []
 
 
 def test_results_is_short():

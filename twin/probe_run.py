@@ -11,15 +11,13 @@ new folder, atomically. Units: deg, mm, s.
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import tempfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
 from rfp_twin.models.errors import KindError, LayoutError, RfpError
+from rfp_twin.models.files import atomic_folder
 from rfp_twin.models.kinds import MIRADAS_PROBE, load_kind
 from rfp_twin.planners.plan.kinds import require_planner_kind
 from rfp_twin.planners.roadmap.probe import (ProbePlan, ProbePlanSettings, plan_probe_arms,
@@ -89,9 +87,9 @@ def write_probe_run(run: ProbeRun, out: Path, overwrite: bool = False) -> Path:
     """Write ``plan.json``, ``summary.json`` and ``tables.txt`` into folder ``out``
     (a temp folder renamed into place: nothing half-written is left)."""
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    if out.exists() and not overwrite:
+        raise RfpError(f"output folder {out} exists; allowed: a new folder, or --force")
+    with atomic_folder(out) as tmp:
         plan = {str(i): {"theta1": [[float(q[0]), float(t)] for t, q in zip(ts, qs)],
                          "theta2": [[float(q[1]), float(t)] for t, q in zip(ts, qs)]}
                 for i, (ts, qs) in run.plan.breakpoints().items()}
@@ -99,18 +97,6 @@ def write_probe_run(run: ProbeRun, out: Path, overwrite: bool = False) -> Path:
         (tmp / "summary.json").write_text(json.dumps(run.summary(), indent=2, default=_plain),
                                           encoding="utf-8")
         (tmp / "tables.txt").write_text(run.plan.tables() + "\n", encoding="utf-8")
-        if out.exists():
-            if not overwrite:
-                raise RfpError(f"output folder {out} exists; allowed: a new folder, or --force")
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
-            os.replace(out, old / "run")
-            os.replace(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out
 
 

@@ -172,7 +172,7 @@ def _f(x, nd: int = 3) -> str:
 
 
 def frontier_tags(designs: list[DesignResult], k: int) -> dict[tuple, list[str]]:
-    """{(design_id, resolution): ["kept S1", "fold R2", ...]}: the tags the frontier figure
+    """{(design_id, resolution): ["kept s1", "fold r2", ...]}: the tags the frontier figure
     gives the design's frontier points (:func:`~rfp_twin.twin.studies.frontier_plot.frontier_groups`)."""
     marks: dict[tuple, list[str]] = defaultdict(list)
     for fam in sorted({d.family for d in designs}):
@@ -237,7 +237,7 @@ def frontier_section(study_dir: str | Path, out_dir: Path, point_ids: set[str] |
              "filled marker in its ring: both alike; the pair joined by a grey line: the same "
              "targets); marker: q = alpha/beta, colour: sigma; markers of equal coverage are "
              "dodged sideways a little. Lines: Pareto frontiers (solid: search, dashed: "
-             "replace); their points are tagged S1, S2, ... (search) and R1, ... (replace), "
+             "replace); their points are tagged s1, s2, ... (search) and r1, ... (replace), "
              "spelled out in the key as q, pitch / reach (p/r) and sigma (and in the table's last "
              "column).", "",
              "Kept: share of robots at their own target when the plan ends (a failed trial "

@@ -6,8 +6,8 @@ fibers, and a key (right). Marker shape: arm ratio q = alpha / beta; colour: col
 buffer; small filled: ``search`` (our resolver), large open ring: ``replace`` (Sayres
 2021), so a design both resolve alike shows a filled marker in its ring; the two markers
 of one design (the same targets) are joined by a grey line. Pareto frontiers are
-staircases (solid: search, dashed: replace); their points carry short tags (``S1``,
-``R1``, ...) that the key spells out as ``q, p/r, sigma`` (coincident points share a tag).
+staircases (solid: search, dashed: replace); their points carry short tags (``s1``,
+``r1``, ...) that the key spells out as ``q, p/r, sigma`` (coincident points share a tag).
 Designs of equal coverage (the same pitch / reach) are dodged sideways by :data:`DODGE`
 of the panel's coverage range per (arm ratio, buffer) slot so that no marker hides
 another; the report's table has the exact values. matplotlib's Agg canvas (no pyplot
@@ -32,7 +32,7 @@ DODGE = 0.02
 FRONTIER_STYLE = {"search": dict(linestyle="-", color="black"),
                   "replace": dict(linestyle="--", color="0.35"),
                   "none": dict(linestyle=":", color="0.55")}
-TAG = {"search": "S", "replace": "R", "none": "N"}
+TAG = {"search": "s", "replace": "r", "none": "n"}
 
 
 def _family_title(ds) -> str:
@@ -101,7 +101,7 @@ def _panel(ax, ds, k: int, metric: str, colours: dict, markers: dict) -> list[tu
                     lw=1.3, zorder=2, alpha=0.8, **style)
     for tag, g in tags:
         x = sum(x_of(d) for d in g) / len(g)
-        above = tag.startswith("S")
+        above = tag.startswith("s")
         ax.annotate(tag, (x, _y(g[0], metric)), xytext=(5, 6 if above else -12),
                     textcoords="offset points", fontsize=8, fontweight="bold", color="0.1",
                     bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.75))

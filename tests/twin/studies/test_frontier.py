@@ -117,9 +117,9 @@ def test_frontier_figure_and_report_table(hand_folder, tmp_path):
     assert len(table) == 4                                  # one row per design point
     row = next(line for line in table if "| 1.8 |" in line).split(" | ")
     assert "0.450" in row and "2 (0) / 2 (1)" in row[-2]
-    assert row[-1].strip(" |") == "kept S3, fold S3"      # the figure's tags
+    assert row[-1].strip(" |") == "kept s3, fold s3"      # the figure's tags
     first = next(line for line in table if "| 1.2 |" in line)
-    assert first.split(" | ")[-1].strip(" |") == "kept S1, fold S1, kept R1, fold R1"
+    assert first.split(" | ")[-1].strip(" |") == "kept s1, fold s1, kept r1, fold r1"
     # the table without tags names resolver and metric
     from rfp_twin.twin.studies.frontier import frontier_table
     plain = [line for line in frontier_table(designs) if "| 1.4 |" in line][0]
