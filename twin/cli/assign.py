@@ -19,8 +19,8 @@ from rfp_twin.twin.cli.layout_option import CALIBRATION_HELP, LAYOUT_HELP, chose
 
 CATALOGUE_HELP = ("A catalogue file (CSV or Parquet: id; x_mm,y_mm or x_wok_mm,y_wok_mm or "
                   "ra_deg,dec_deg; optional priority, kind science|sky|standard, fiber "
-                  "boss|apogee|any) or a mock: mock:uniform|clustered:DENSITY[/deg2|/patrol]"
-                  "[,sky=D][,standard=D][,levels=K][,fiber=F][,children=C][,sigma=MM].")
+                  "boss|apogee|any) or a mock: mock:uniform|clustered:DENSITY[/deg2|/patrol|"
+                  "/robot][,sky=D][,standard=D][,levels=K][,fiber=F][,children=C][,sigma=MM].")
 
 
 def parse_arms(text: str) -> tuple[str, ...]:

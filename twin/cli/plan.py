@@ -72,7 +72,7 @@ def plan(
                                             "assign again without the targets the plan did "
                                             "not keep, until it keeps them all. A CSV/Parquet "
                                             "file or mock:uniform|clustered:DENSITY[/deg2|"
-                                            "/patrol][,...] (see rfp-twin assign --help)."),
+                                            "/patrol|/robot][,...] (see rfp-twin assign --help)."),
     telescope: str = typer.Option("auto", help="--catalogue: plate scale and field (auto | apo "
                                   "| lco | none)."),
     field_centre: Optional[str] = typer.Option(None, help="--catalogue: RA,DEC of the field "
