@@ -19,8 +19,8 @@ from rfp_twin.twin.cli.shared_options import (ArrayOptions, CatalogueOptions, fo
 
 CATALOGUE_HELP = ("A catalogue file (CSV or Parquet: id; x_mm,y_mm or x_wok_mm,y_wok_mm or "
                   "ra_deg,dec_deg; optional priority, kind science|sky|standard, fiber "
-                  "boss|apogee|any) or a mock: mock:uniform|clustered:DENSITY[/deg2|/patrol]"
-                  "[,sky=D][,standard=D][,levels=K][,fiber=F][,children=C][,sigma=MM].")
+                  "boss|apogee|any) or a mock: mock:uniform|clustered:DENSITY[/deg2|/patrol|"
+                  "/robot][,sky=D][,standard=D][,levels=K][,fiber=F][,children=C][,sigma=MM].")
 
 
 @one_line_errors

@@ -41,7 +41,7 @@ def plan(
                                             "assign again without the targets the plan did "
                                             "not keep, until it keeps them all. A CSV/Parquet "
                                             "file or mock:uniform|clustered:DENSITY[/deg2|"
-                                            "/patrol][,...] (see rfp-twin assign --help)."),
+                                            "/patrol|/robot][,...] (see rfp-twin assign --help)."),
     assign_rounds: int = typer.Option(5, help="--catalogue: assign -> plan rounds at most, "
                                       ">= 1."),
     out: Path = out_option(Path("out/plan")),
