@@ -141,6 +141,10 @@ SCHEMA = pa.schema([
     ("assign_s", pa.float64()),        # assignment wall time, all rounds
     ("assign_status", pa.string()),    # optimal | feasible | heuristic (last round)
     ("assign_gap", pa.float64()),      # (bound - objective) / bound, last round
+    ("missed_busy", pa.int32()),       # targets within reach not taken: every robot busy
+    ("missed_parked", pa.int32()),     # blocked only by parked neighbours' parking poses
+    ("missed_neighbour", pa.int32()),  # blocked by a neighbour on another target
+    ("missed_other", pa.int32()),      # none of these (forbidden by the loop, time limit)
 ])
 
 

@@ -78,7 +78,13 @@ class YieldPoint:
 #: Row columns averaged per point.
 VALUE_COLUMNS = ("completeness", "completeness_top", "targets_per_pointing", "targets_per_hour",
                  "reconfig_s", "targets_per_robot", "n_available", "loop_rounds", "loop_lost",
-                 "plan_s", "assign_s", "wall_s", "assign_gap")
+                 "plan_s", "assign_s", "wall_s", "assign_gap", "missed_busy", "missed_parked",
+                 "missed_neighbour", "missed_other")
+#: Why targets within reach were missed: row column -> what the report calls it.
+MISSED = {"missed_busy": "every robot that reaches them busy",
+          "missed_parked": "blocked only by parked neighbours",
+          "missed_neighbour": "blocked by a neighbour on another target",
+          "missed_other": "other (forbidden by the loop, time limit)"}
 PARAM_KEYS = ("preset", "layout", "n_robots", "n_rafts", "pitch_mm", "alpha_length_mm",
               "beta_length_mm", "arm_ratio", "pitch_over_reach", "buffer_mm", "step_deg",
               "resolution", "density_unit", "exposure_s")
@@ -184,7 +190,8 @@ def yield_table(points: list[YieldPoint]) -> list[str]:
     unit = points[0].params.get("density_unit") if points else ""
     head = ["design", "catalogue", f"density /{unit}", "available / robot", "trials (failed)",
             "completeness", "min", "top priority", "targets / pointing", "reconfig s",
-            "targets / hour", "rounds", "lost in loop", "lost at end", "collisions"]
+            "targets / hour", "missed: busy / parked / neighbour / other", "rounds",
+            "lost in loop", "lost at end", "collisions"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for p in points:
         lines.append("| " + " | ".join([
@@ -192,7 +199,8 @@ def yield_table(points: list[YieldPoint]) -> list[str]:
             f"{p.n_trials} ({p.n_failed})", _f(p.mean("completeness")),
             _f(p.min("completeness")), _f(p.mean("completeness_top")),
             _f(p.mean("targets_per_pointing"), 1), _f(p.mean("reconfig_s"), 1),
-            _f(p.mean("targets_per_hour"), 0), _f(p.mean("loop_rounds"), 2),
+            _f(p.mean("targets_per_hour"), 0),
+            " / ".join(_f(p.mean(c), 1) for c in MISSED), _f(p.mean("loop_rounds"), 2),
             str(int(p.values["loop_lost"].sum())), str(p.n_lost), str(p.collisions)]) + " |")
     return lines
 
@@ -217,6 +225,8 @@ def yield_section(study_dir: str | Path, out_dir: Path, point_ids: set[str] | No
     n_coll = sum(p.collisions for p in points)
     n_lost = sum(p.n_lost for p in points)
     lost_loop = int(sum(p.values["loop_lost"].sum() for p in points))
+    missed = {c: int(sum(p.values[c].sum() for p in points)) for c in MISSED}
+    n_missed = sum(missed.values())
     lines = ["## Science yield", "",
              f"{n_trials} catalogue trials ({n_failed} failed) at {len(points)} (design, "
              f"catalogue, density) points. Each trial draws a mock science catalogue with its "
@@ -238,6 +248,12 @@ def yield_section(study_dir: str | Path, out_dir: Path, point_ids: set[str] | No
              f"Targets lost between assignment and motion: {lost_loop} over every round of "
              f"every trial (each forbidden and assigned again), **{n_lost}** left after the "
              f"last round; 2D check of every final plan: **{n_coll}** collisions.", "",
+             f"Targets within reach that no robot took ({n_missed} over every trial), by "
+             "the most benign reason one of their candidate poses has: "
+             + "; ".join(f"{text} {missed[c]}" for c, text in MISSED.items())
+             + ". Per point, the table gives the mean per trial (busy / parked / neighbour / "
+             "other): a design whose misses are *parked* would gain from a parking pose that "
+             "clears its neighbours' patrol areas.", "",
              f"![completeness]({COMPLETENESS_PNG})", "",
              f"*{COMPLETENESS_PNG}*: completeness against density, one line per design (mean "
              "over the trials; bars: lowest and highest trial); left uniform (Poisson), right "

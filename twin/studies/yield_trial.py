@@ -22,6 +22,10 @@ What the row records (science targets only; calibration targets are not drawn):
   (``firmware = true``), else the stepwise fold time;
 - ``targets_per_hour = 3600 * targets_per_pointing / (reconfig_s + exposure_s)``: one
   pointing per reconfiguration plus exposure (no slew, acquisition or read-out time);
+- why the targets within reach that nobody took were missed
+  (:func:`rfp_twin.planners.assignment.miss_reasons`): ``missed_busy`` (every robot that
+  reaches it holds another target), ``missed_parked`` (blocked only by parked neighbours'
+  parking poses), ``missed_neighbour`` (by a neighbour on another target), ``missed_other``;
 - the loop: ``loop_rounds``, ``loop_lost`` (assigned targets the plan lost over all
   rounds, each then forbidden), ``n_lost`` (left in the last round), assignment time,
   status and gap.
@@ -38,7 +42,7 @@ import numpy as np
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.catalogue import SCIENCE
-from rfp_twin.planners.assignment import AssignSettings, build_candidates
+from rfp_twin.planners.assignment import AssignSettings, build_candidates, miss_reasons
 from rfp_twin.planners.plan import REACHED
 from rfp_twin.twin.catalogue_source import load_catalogue, telescope_for
 from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
@@ -104,8 +108,11 @@ def yield_columns(geom: ArrayGeometry, options: PlanOptions, point: dict, seed: 
         reconfig = float(geom.spec.path_delay_s + outcome.trajectory.duration)
     else:
         reconfig = float(outcome.plan.metrics["fold_time_s"])
+    missed = miss_reasons(geom, cands, a, rc.target_margin_mm(), available)
     check = outcome.check
     cols = plan_columns(outcome.plan)
+    cols.update(missed_busy=missed["robot_busy"], missed_parked=missed["parked_neighbour"],
+                missed_neighbour=missed["assigned_neighbour"], missed_other=missed["other"])
     cols.update(
         catalogue_text=text, n_targets=int(science.sum()), n_available=n_avail,
         targets_per_robot=n_avail / max(1, geom.n_robots),

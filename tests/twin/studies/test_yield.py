@@ -130,6 +130,9 @@ def test_a_yield_trial_counts_what_the_plan_keeps():
             assert r["targets_per_hour"] == pytest.approx(
                 3600 * r["targets_per_pointing"] / (r["reconfig_s"] + 600.0))
             assert r["loop_rounds"] >= 1 and r["exposure_s"] == 600.0
+            missed = [r[k] for k in ("missed_busy", "missed_parked", "missed_neighbour",
+                                     "missed_other")]
+            assert min(missed) >= 0 and sum(missed) == r["n_available"] - r["targets_per_pointing"]
             # the row's catalogue text and seed draw the same catalogue again (replay)
             geom_n = r["n_targets"]
             from rfp_twin.models.array import ArrayGeometry
@@ -169,3 +172,37 @@ def test_a_yield_study_resumes_skipping_done_trials_and_reports(tmp_path):
     assert "rfp-twin plan --preset" in text and "--catalogue mock:" in text
     points = yield_points(out)
     assert len(points) == 8 and {p.label.split(":")[0] for p in points} == {"desi", "raft"}
+
+
+PARKED = """
+[study]
+firmware = true
+[grid]
+catalogue = "uniform"
+density = 0.25
+step_deg = 1.0
+resolution = "search"
+[[family]]
+name = "sdss"
+preset = "sdss-v-production"
+n_robots = 37
+[[family]]
+name = "desi"
+preset = "desi"
+n_robots = 37
+"""
+
+
+def test_misses_name_the_parked_neighbours_of_long_arms():
+    """At a sparse density most robots park at the fold: SDSS-V's 15 mm beta arms, folded,
+    block targets of their neighbours; the DESI-like 3 + 3 mm arms do not."""
+    study = parse_study(PARKED)
+    parked = {}
+    for p in study.points:
+        rows = [run_trial(p, i, 3, firmware=True) for i in range(4)]
+        parked[p.family] = sum(r["missed_parked"] for r in rows)
+        for r in rows:
+            assert r["n_lost"] == 0 and r["collisions"] == 0
+            assert r["missed_busy"] + r["missed_parked"] + r["missed_neighbour"] + \
+                r["missed_other"] == r["n_available"] - r["targets_per_pointing"]
+    assert parked["sdss"] > 0 and parked["desi"] == 0
