@@ -8,13 +8,16 @@
 - :mod:`rfp_twin.planners.assignment.greedy`: greedy + local improvement (numba)
 - :mod:`rfp_twin.planners.assignment.assign`: :func:`assign`, :class:`AssignSettings`,
   :class:`Quotas`, :class:`Assignment`
+- :mod:`rfp_twin.planners.assignment.completeness`: :func:`completeness` (science targets
+  observed, overall and by priority), :func:`observed_rows`
 """
 from rfp_twin.planners.assignment.assign import (DEFAULT_EXACT, MAX_EXACT_ROBOTS, METHODS,
                                                  AssignSettings, Assignment, Quotas, assign,
                                                  relaxed_bound)
 from rfp_twin.planners.assignment.candidates import (ARMS, LEFT, PARKED, RIGHT, Candidates,
                                                      build_candidates, parking_angles)
+from rfp_twin.planners.assignment.completeness import completeness, observed_rows
 
 __all__ = ["ARMS", "DEFAULT_EXACT", "LEFT", "MAX_EXACT_ROBOTS", "METHODS", "PARKED", "RIGHT",
            "AssignSettings", "Assignment", "Candidates", "Quotas", "assign", "build_candidates",
-           "parking_angles", "relaxed_bound"]
+           "completeness", "observed_rows", "parking_angles", "relaxed_bound"]

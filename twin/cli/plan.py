@@ -83,6 +83,10 @@ def plan(
                              "| left."),
     assign_rounds: int = typer.Option(5, help="--catalogue: assign -> plan rounds at most, "
                                       ">= 1."),
+    passes: int = typer.Option(1, help="--catalogue: observe the field this many times; "
+                               "each pass assigns the science targets not yet observed and "
+                               "is planned from the last pass's poses (a run folder per "
+                               "pass, passes.csv, observed.csv)."),
     sky_quota: int = typer.Option(0, help="--catalogue: minimum sky fibers per region."),
     standard_quota: int = typer.Option(0, help="--catalogue: minimum standard fibers per "
                                        "region."),
@@ -128,6 +132,13 @@ def plan(
     tg = rc.read_targets(targets) if targets is not None else None
     if assign_rounds < 1:
         raise TargetError(f"--assign-rounds {assign_rounds}; allowed: >= 1")
+    if passes != 1:
+        from rfp_twin.twin.passes import check_passes
+
+        check_passes(passes)
+        if catalogue is None:
+            raise TargetError(f"--passes {passes} without --catalogue; allowed: --passes with "
+                              "a catalogue")
     cat = None
     if catalogue is not None:
         from rfp_twin.planners.assignment import AssignSettings, Quotas
@@ -151,6 +162,11 @@ def plan(
         return run_jaeger_flow(rc, seed, tg, out, force, algorithm=algorithm, greed=chosen.greed,
                                phobia=chosen.phobia, step=step)
     t_setup = time.perf_counter()
+    if passes != 1:
+        from rfp_twin.twin.cli.passes import run_passes_cli
+
+        return run_passes_cli(rc, cat, assign_settings, passes, seed=seed,
+                              max_rounds=assign_rounds, out=out, force=force, layout=layout)
     n, rounds = rc.geom.n_robots, options.max_rounds + 1
     with progress_bar("planning", "{task.completed}/{task.total}") as progress:
         task = progress.add_task(f"{n} robots, {algorithm}", total=rounds if options.stepwise else None)
