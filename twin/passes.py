@@ -46,24 +46,15 @@ from rfp_twin.planners.assignment.completeness import completeness, observed_row
 from rfp_twin.planners.plan import OFFLINE, REACHED
 from rfp_twin.planners.plan.join import join_plans
 from rfp_twin.twin.outcome import Outcome
+from rfp_twin.twin.pass_options import check_passes
 from rfp_twin.twin.plannable import MAX_ROUNDS, CatalogueRun, plan_catalogue
 from rfp_twin.validation.checker2d import check_trajectory
 
-#: Most passes of one field.
-MAX_PASSES = 100
 #: The direct motion goes through the whole pipeline (deadlock resolution) when its first
 #: run leaves at most this many robots stuck, or this share of them, whichever is more.
 DIRECT_MIN_STUCK, DIRECT_STUCK_SHARE = 2, 0.02
 #: How the motion of a pass was made.
 FROM_FOLD, DIRECT, VIA_FOLD = "from fold", "direct", "via fold"
-
-
-def check_passes(passes: int) -> int:
-    """``passes`` as an int in [1, :data:`MAX_PASSES`]; RfpError (one line) otherwise."""
-    if isinstance(passes, bool) or not isinstance(passes, (int, np.integer)) \
-            or not 1 <= passes <= MAX_PASSES:
-        raise RfpError(f"--passes {passes!r}; allowed: an integer in [1, {MAX_PASSES}]")
-    return int(passes)
 
 
 @dataclass

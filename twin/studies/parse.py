@@ -25,6 +25,7 @@ from rfp_twin.twin.studies.resolve import load_preset, resolve_point
 from rfp_twin.twin.studies.spec import (ALGORITHM_ALIASES, DIRECTIONS, GRID_DEFAULTS, GRID_KEYS,
                                         LAYOUTS, NAME_RE, RESOLUTIONS, SAME_TARGET_KEYS,
                                         STUDY_KEYS, Study, StudyError, StudyPoint)
+from rfp_twin.twin.studies.yield_options import YieldOptions
 
 __all__ = ["list_studies", "study_path", "load_study", "parse_study", "is_int"]
 
@@ -96,7 +97,12 @@ def _study_table(source: str, st: dict) -> dict:
     if not (isinstance(same, list) and all(k in SAME_TARGET_KEYS for k in same)
             and len(set(same)) == len(same)):
         raise _bad(source, "study.same_targets", same, STUDY_KEYS["same_targets"])
-    out.update(trials=trials, seed=seed, batch=batch, same_targets=tuple(same))
+    exposure = st.get("exposure_s", YieldOptions().exposure_s)
+    info = option_info(YieldOptions, "exposure_s")
+    if not (_is_num(exposure) and info.lo <= exposure <= info.hi):
+        raise _bad(source, "study.exposure_s", exposure, STUDY_KEYS["exposure_s"])
+    out.update(trials=trials, seed=seed, batch=batch, same_targets=tuple(same),
+               exposure_s=float(exposure))
     return out
 
 
@@ -205,7 +211,8 @@ def parse_study(text: str, source: str = "<study>", base_dir: str | Path | None 
                  batch=opts["batch"], grid=merged, points=tuple(points), source=source, text=text,
                  same_targets=opts["same_targets"], coverage=opts["coverage"],
                  firmware=opts["firmware"],
-                 families=tuple(f for f, _ in families if f is not None))
+                 families=tuple(f for f, _ in families if f is not None),
+                 exposure_s=opts["exposure_s"])
 
 
 def _planner_range(name: str) -> tuple:
@@ -219,6 +226,15 @@ def _planner_range(name: str) -> tuple:
     return info.lo, info.hi, False, "int" in str(kind)
 
 
+def _yield_range(name: str) -> tuple:
+    """A yield key's range as :class:`YieldOptions` declares it."""
+    from dataclasses import fields
+
+    info = option_info(YieldOptions, name)
+    kind = next(f.type for f in fields(YieldOptions) if f.name == name)
+    return info.lo, info.hi, False, "int" in str(kind)
+
+
 #: Numeric grid keys: (low, high, low excluded, integer); None = unbounded. The planner's
 #: own options take the range PlannerSettings declares.
 _NUMERIC = {
@@ -229,6 +245,7 @@ _NUMERIC = {
     **{k: _planner_range(k) for k in ("step_deg", "greed", "phobia", "max_rounds", "max_steps")},
     "arm_ratio": (0.0, None, True, False), "pitch_over_reach": (0.0, None, True, False),
     "n_rafts": (1, None, False, True),
+    **{k: _yield_range(k) for k in ("density", "priority_levels", "assign_rounds")},
 }
 
 
@@ -264,7 +281,9 @@ def _check_value(source: str, key: str, v, prefix: str = "grid"):
         if a is None:
             raise _bad(source, where, v, allowed)
         return a
-    choices = {"layout": LAYOUTS, "resolution": RESOLUTIONS, "direction": DIRECTIONS}[key]
+    choices = {"layout": LAYOUTS, "resolution": RESOLUTIONS, "direction": DIRECTIONS,
+               **{k: option_info(YieldOptions, k).choices
+                  for k in ("catalogue", "density_unit")}}[key]
     if v not in choices:
         raise _bad(source, where, v, allowed)
     return v
