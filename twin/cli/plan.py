@@ -15,6 +15,7 @@ from rfp_twin.models.errors import TargetError
 from rfp_twin.twin.cli.options import options_from, with_options
 from rfp_twin.twin.cli.shared_options import (ArrayOptions, CatalogueOptions, force_option,
                                               out_option)
+from rfp_twin.twin.pass_options import PassOptions
 from rfp_twin.twin.pipeline import PlanOptions
 from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, fail, one_line_errors,
                                        print_rows, progress_bar)
@@ -27,6 +28,7 @@ PLAN_RENAME = {"step_deg": "step", "budget_mm": "budget"}
 @one_line_errors
 @with_options(ArrayOptions)
 @with_options(CatalogueOptions, {"solver": "assign_solver"})
+@with_options(PassOptions)
 @with_options(PlanOptions, PLAN_RENAME)
 def plan(
     seed: int = typer.Option(0, help="Seed of targets, Markov moves and replacements."),
@@ -81,6 +83,11 @@ def plan(
     tg = rc.read_targets(targets) if targets is not None else None
     if assign_rounds < 1:
         raise TargetError(f"--assign-rounds {assign_rounds}; allowed: >= 1")
+    passes = options_from(PassOptions, option_values).passes
+    if passes != 1:
+        if catalogue is None:
+            raise TargetError(f"--passes {passes} without --catalogue; allowed: --passes with "
+                              "a catalogue")
     cat = None
     if catalogue is not None:
         assigning = options_from(CatalogueOptions, option_values, {"solver": "assign_solver"})
@@ -97,6 +104,11 @@ def plan(
         return run_jaeger_flow(rc, seed, tg, out, force, algorithm=algorithm, greed=chosen.greed,
                                phobia=chosen.phobia, step=step)
     t_setup = time.perf_counter()
+    if passes != 1:
+        from rfp_twin.twin.cli.passes import run_passes_cli
+
+        return run_passes_cli(rc, cat, assign_settings, passes, seed=seed,
+                              max_rounds=assign_rounds, out=out, force=force, layout=layout)
     n, rounds = rc.geom.n_robots, options.max_rounds + 1
     with progress_bar("planning", "{task.completed}/{task.total}") as progress:
         task = progress.add_task(f"{n} robots, {algorithm}", total=rounds if options.stepwise else None)

@@ -1,0 +1,39 @@
+"""Completeness: the share of a catalogue's science targets observed, overall and by priority.
+
+A survey reports completeness as observed / available science targets (calibration
+targets, sky and standards, are re-used every exposure and never "complete"). Targets
+of different priorities fare differently (the assigner takes the valuable ones first),
+so the figure is also given per priority value.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from rfp_twin.models.catalogue import SCIENCE, Catalogue
+
+
+def completeness(catalogue: Catalogue, observed: np.ndarray) -> dict:
+    """Completeness of ``catalogue``'s science targets given ``observed`` ((t,) bool, one per
+    catalogue row).
+
+    Returns ``{"science": observed / science targets (None without science targets),
+    "n_science": int, "n_observed": int, "by_priority": {priority (str, as "%g"):
+    {"n": targets, "observed": observed, "completeness": share}}}``, priorities in
+    decreasing order."""
+    observed = np.asarray(observed, dtype=bool).reshape(catalogue.n_targets)
+    science = catalogue.kind == SCIENCE
+    n_sci = int(science.sum())
+    seen = observed & science
+    by = {}
+    for p in np.unique(catalogue.priority[science])[::-1]:
+        at = science & (catalogue.priority == p)
+        n, k = int(at.sum()), int((seen & at).sum())
+        by[f"{float(p):g}"] = {"n": n, "observed": k, "completeness": k / n}
+    return {"science": (int(seen.sum()) / n_sci) if n_sci else None, "n_science": n_sci,
+            "n_observed": int(seen.sum()), "by_priority": by}
+
+
+def observed_rows(catalogue: Catalogue, target_ids: np.ndarray) -> np.ndarray:
+    """(t,) bool: the catalogue rows whose id is among ``target_ids`` (ids < 0 ignored)."""
+    ids = np.asarray(target_ids, dtype=np.int64).reshape(-1)
+    return np.isin(catalogue.ids, ids[ids >= 0])
