@@ -7,16 +7,21 @@ into its inputs (array, catalogue, settings) and its result into a folder
 from __future__ import annotations
 
 import time
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 
 import typer
 
+from rfp_twin.models.options import option_info
+from rfp_twin.planners.plan.settings import PlannerSettings
 from rfp_twin.twin.cli.console import one_line_errors, print_rows
 from rfp_twin.twin.cli.options import options_from, with_options
 from rfp_twin.twin.cli.shared_options import (ArrayOptions, CatalogueOptions, force_option,
                                               out_option)
 
+#: The planner's step (its declaration: default, range, unit), whose margin final poses keep.
+STEP = next(f for f in fields(PlannerSettings) if f.name == "step_deg")
+STEP_INFO = option_info(PlannerSettings, "step_deg")
 CATALOGUE_HELP = ("A catalogue file (CSV or Parquet: id; x_mm,y_mm or x_wok_mm,y_wok_mm or "
                   "ra_deg,dec_deg; optional priority, kind science|sky|standard, fiber "
                   "boss|apogee|any) or a mock: mock:uniform|clustered:DENSITY[/deg2|/patrol|"
@@ -28,8 +33,9 @@ CATALOGUE_HELP = ("A catalogue file (CSV or Parquet: id; x_mm,y_mm or x_wok_mm,y
 @with_options(CatalogueOptions)
 def assign(
     catalogue: str = typer.Option(..., help=CATALOGUE_HELP),
-    step: float = typer.Option(0.1, help="Angular step of the stepwise planner, deg: final "
-                               "poses keep its margin (Sayres 2021 Eq. 7) beyond the buffer."),
+    step: float = typer.Option(STEP.default, help=f"{STEP_INFO.describe()[:-1]} of the stepwise "
+                               "planner: final poses keep its margin (Sayres 2021 Eq. 7) beyond "
+                               "the buffer."),
     seed: int = typer.Option(0, help="Seed of a mock catalogue."),
     time_limit: float = typer.Option(10.0, help="Time limit of the exact solver, s."),
     out: Path = out_option(Path("out/assign")),

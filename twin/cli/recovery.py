@@ -26,6 +26,7 @@ from rfp_twin.twin.cli.shared_options import (ArrayOptions, force_option, out_op
 
 POSES_HELP = ("Run folder (its trajectory's end) or CSV of current angles "
               "(robot_id,alpha_deg,beta_deg).")
+RUN_OUT_HELP = "Output run folder."
 #: CLI spellings of fields whose names carry their unit.
 RENAME = {"step_deg": "step"}
 
@@ -117,7 +118,7 @@ def _report(title: str, outcome, out: Path) -> None:
 @with_options(UnwindOptions)
 def unwind(
     poses: Path = typer.Argument(..., help=POSES_HELP),
-    out: Path = out_option(Path("out/unwind"), "Output run folder."),
+    out: Path = out_option(Path("out/unwind"), RUN_OUT_HELP),
     force: bool = force_option(),
     **option_values,
 ) -> None:
@@ -156,7 +157,7 @@ def explode(
     poses: Path = typer.Argument(..., help=POSES_HELP),
     degrees: float = typer.Option(20.0, help="Travel of the explosion, deg (> 0)."),
     robot: Optional[int] = typer.Option(None, help="Explode this robot alone [default: all]."),
-    out: Path = out_option(Path("out/explode"), "Output run folder."),
+    out: Path = out_option(Path("out/explode"), RUN_OUT_HELP),
     force: bool = force_option(),
     **option_values,
 ) -> None:

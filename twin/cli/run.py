@@ -24,6 +24,8 @@ from rfp_twin.twin.cli.shared_options import PRESET_HELP, parse_ids
 model_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None, help="The MuJoCo model of an array.")
 
 #: Fault options: (option, fault class name in rfp_twin.twin.sim, number of fields, form).
+FOLD_HELP = "Play targets -> fold instead of fold -> targets."
+TIMESTEP_HELP = "MuJoCo timestep, s."
 TILE_HELP = ("Simulate in tiles of at most this many robots (0: one MuJoCo model) [default: "
              "tiles of 512 above 2,000 robots].")
 _FAULTS = (("--stuck", "Stuck", 2, "ID:TIME_S"), ("--slow", "Slow", 2, "ID:FACTOR"),
@@ -98,7 +100,7 @@ def model_export(
     layout: Optional[str] = typer.Option(None, help=LAYOUT_HELP),
     calibration: Optional[Path] = typer.Option(None, help=CALIBRATION_HELP),
     fiducials: str = typer.Option("", help="Comma-separated fiducial ids (generated grids)."),
-    timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
+    timestep: float = typer.Option(0.004, help=TIMESTEP_HELP),
 ) -> None:
     """Write the MuJoCo model (MJCF + STL meshes); MuJoCo's own viewer opens it."""
     from rfp_twin.models.mjcf import ModelOptions, export_model
@@ -132,7 +134,7 @@ def simulate(
     stuck: list[str] = typer.Option([], help="Fault: robot stuck from a time, ID:TIME_S."),
     slow: list[str] = typer.Option([], help="Fault: robot running slow, ID:FACTOR."),
     encoder_offset: list[str] = typer.Option([], help="Fault: encoder offset, ID:ALPHA_DEG:BETA_DEG."),
-    timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
+    timestep: float = typer.Option(0.004, help=TIMESTEP_HELP),
     tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
     **motion_values,
 ) -> None:
@@ -164,7 +166,7 @@ def render(
     height: int = typer.Option(720, help="Frame height, px."),
     fps: float = typer.Option(30.0, help="Frames per second of the video."),
     speedup: float = typer.Option(1.0, help="Simulated seconds per video second."),
-    fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
+    fold: bool = typer.Option(False, help=FOLD_HELP),
     full_quality: bool = typer.Option(False, help="Shadows, reflections, MSAA (slow on a CPU)."),
     tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
     **motion_values,
@@ -190,7 +192,7 @@ def render(
 def record(
     run: Path = typer.Argument(..., help=SOURCE_HELP),
     out: Path = typer.Option(Path("run.rrd"), help=".rrd file to write."),
-    fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
+    fold: bool = typer.Option(False, help=FOLD_HELP),
     dt: Optional[float] = typer.Option(None, help="Seconds between logged poses [default 0.02]."),
     tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
     **motion_values,
