@@ -9,15 +9,19 @@
 - :mod:`rfp_twin.planners.assignment.misses`: why a target within reach was not assigned
 - :mod:`rfp_twin.planners.assignment.assign`: :func:`assign`, :class:`AssignSettings`,
   :class:`Quotas`, :class:`Assignment`
+- :mod:`rfp_twin.planners.assignment.completeness`: :func:`completeness` (science targets
+  observed, overall and by priority), :func:`observed_rows`
 """
 from rfp_twin.planners.assignment.assign import (DEFAULT_EXACT, MAX_EXACT_ROBOTS, METHODS,
                                                  AssignSettings, Assignment, Quotas, assign,
                                                  relaxed_bound)
 from rfp_twin.planners.assignment.candidates import (ARMS, LEFT, PARKED, RIGHT, Candidates,
                                                      build_candidates, parking_angles)
+from rfp_twin.planners.assignment.completeness import (completeness, observed_rows,
+                                                       reachable_rows)
 from rfp_twin.planners.assignment.misses import MISS_REASONS, miss_reasons
 
 __all__ = ["ARMS", "DEFAULT_EXACT", "LEFT", "MAX_EXACT_ROBOTS", "METHODS", "MISS_REASONS",
            "PARKED", "RIGHT", "miss_reasons",
            "AssignSettings", "Assignment", "Candidates", "Quotas", "assign", "build_candidates",
-           "parking_angles", "relaxed_bound"]
+           "completeness", "observed_rows", "reachable_rows", "parking_angles", "relaxed_bound"]

@@ -19,7 +19,8 @@ from importlib import resources
 from pathlib import Path
 
 from rfp_twin.models.layout import hex_rings, nearest_hex_counts
-from rfp_twin.models.options import option_info
+from rfp_twin.models.options import option_info, option_range
+from rfp_twin.planners.plan.settings import PlannerSettings
 from rfp_twin.models.robot import RobotSpec
 from rfp_twin.twin.studies.resolve import load_preset, resolve_point
 from rfp_twin.twin.studies.spec import (ALGORITHM_ALIASES, DIRECTIONS, GRID_DEFAULTS, GRID_KEYS,
@@ -215,37 +216,23 @@ def parse_study(text: str, source: str = "<study>", base_dir: str | Path | None 
                  exposure_s=opts["exposure_s"])
 
 
-def _planner_range(name: str) -> tuple:
-    """A grid key's range as the planner declares it (PlannerSettings' option)."""
-    from dataclasses import fields
-
-    from rfp_twin.planners.plan import PlannerSettings
-
-    info = option_info(PlannerSettings, name)
-    kind = next(f.type for f in fields(PlannerSettings) if f.name == name)
-    return info.lo, info.hi, False, "int" in str(kind)
-
-
-def _yield_range(name: str) -> tuple:
-    """A yield key's range as :class:`YieldOptions` declares it."""
-    from dataclasses import fields
-
-    info = option_info(YieldOptions, name)
-    kind = next(f.type for f in fields(YieldOptions) if f.name == name)
-    return info.lo, info.hi, False, "int" in str(kind)
+def _declared_range(cls, name: str) -> tuple:
+    """A grid key's range as ``cls`` declares it (PlannerSettings or YieldOptions)."""
+    lo, hi, integer = option_range(cls, name)
+    return lo, hi, False, integer
 
 
 #: Numeric grid keys: (low, high, low excluded, integer); None = unbounded. The planner's
-#: own options take the range PlannerSettings declares.
+#: own options take the range PlannerSettings declares, the yield axes YieldOptions'.
 _NUMERIC = {
     "fold_alpha_deg": (None, None, False, False), "fold_beta_deg": (None, None, False, False),
     "pitch_mm": (0.0, None, True, False), "alpha_length_mm": (0.0, None, True, False),
     "beta_length_mm": (0.0, None, True, False), "buffer_mm": (0.0, None, True, False),
     "segment_end_mm": (0.0, None, False, False),
-    **{k: _planner_range(k) for k in ("step_deg", "greed", "phobia", "max_rounds", "max_steps")},
+    **{k: _declared_range(PlannerSettings, k) for k in ("step_deg", "greed", "phobia", "max_rounds", "max_steps")},
     "arm_ratio": (0.0, None, True, False), "pitch_over_reach": (0.0, None, True, False),
     "n_rafts": (1, None, False, True),
-    **{k: _yield_range(k) for k in ("density", "priority_levels", "assign_rounds")},
+    **{k: _declared_range(YieldOptions, k) for k in ("density", "priority_levels", "assign_rounds")},
 }
 
 

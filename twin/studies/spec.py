@@ -98,7 +98,9 @@ import numpy as np
 
 from rfp_twin.models.errors import RfpError
 from rfp_twin.models.layout import Layout
+from rfp_twin.models.options import option_info, option_range
 from rfp_twin.models.robot import RobotSpec
+from rfp_twin.planners.plan.settings import PlannerSettings
 from rfp_twin.twin.studies.yield_options import (YIELD_GRID_KEYS, YIELD_STUDY_KEYS, YieldOptions,
                                                  yield_help)
 
@@ -129,6 +131,18 @@ STUDY_KEYS = {
     "firmware": "true | false (post-process trials: firmware-ready fold time)",
     **{k: yield_help(k) for k in YIELD_STUDY_KEYS},
 }
+#: Planning directions (PlannerSettings' ``direction``).
+DIRECTIONS = option_info(PlannerSettings, "direction").choices
+
+
+def planner_allowed(name: str) -> str:
+    """What a planner grid key holds, as PlannerSettings declares it (range and unit)."""
+    lo, hi, integer = option_range(PlannerSettings, name)
+    both = lo is not None and hi is not None
+    return (f"{'an integer' if integer else 'a number'} {'in ' if both else ''}"
+            f"{option_info(PlannerSettings, name).allowed()}")
+
+
 #: Keys of the [grid] table and what they hold.
 GRID_KEYS = {
     "preset": "a robot preset name or a path to a robot TOML",
@@ -142,14 +156,14 @@ GRID_KEYS = {
     "fold_alpha_deg": "a number (deg) within the preset's alpha limits",
     "fold_beta_deg": "a number (deg) within the preset's beta limits",
     "buffer_mm": "a number > 0 (mm), below pitch / 2",
-    "step_deg": "a number in [0.001, 10] (deg)",
+    "step_deg": planner_allowed("step_deg"),
     "algorithm": "greedy | markov (GC / MC accepted) | apf | capf",
-    "greed": "a number in [0, 1]",
-    "phobia": "a number in [0, 1]",
+    "greed": planner_allowed("greed"),
+    "phobia": planner_allowed("phobia"),
     "resolution": "replace | search | none",
-    "direction": "reverse | forward",
-    "max_rounds": "an integer >= 0",
-    "max_steps": "an integer >= 1",
+    "direction": " | ".join(DIRECTIONS),
+    "max_rounds": planner_allowed("max_rounds"),
+    "max_steps": planner_allowed("max_steps"),
     "arm_ratio": "a finite number in (0, inf) (alpha / beta; the reach is kept)",
     "pitch_over_reach": "a finite number in (0, inf) (the arms are scaled; the pitch is kept)",
     "n_rafts": "an integer >= 1 (rafts of 63 robots; layout = \"raft\" only)",
@@ -163,7 +177,6 @@ SAME_TARGET_KEYS = ("resolution", "max_rounds", "direction", "greed", "phobia")
 RESOLUTIONS = ("replace", "search", "none")
 ALGORITHM_ALIASES = {"greedy": "greedy", "gc": "greedy", "markov": "markov", "mc": "markov",
                      "apf": "apf", "capf": "capf"}
-DIRECTIONS = ("reverse", "forward")
 GRID_DEFAULTS = {
     "preset": "sdss-v", "layout": "hex", "n_robots": 547, "pitch_mm": None,
     "alpha_length_mm": None, "beta_length_mm": None, "segment_end_mm": None,
