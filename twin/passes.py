@@ -41,8 +41,9 @@ import numpy as np
 from rfp_twin.models.catalogue import SCIENCE, Catalogue
 from rfp_twin.models.errors import AssignmentError, PlanningError, RfpError
 from rfp_twin.models.trajectory import join_trajectories
-from rfp_twin.planners.assignment import AssignSettings
-from rfp_twin.planners.assignment.completeness import completeness, observed_rows
+from rfp_twin.planners.assignment import AssignSettings, build_candidates
+from rfp_twin.planners.assignment.completeness import (completeness, observed_rows,
+                                                       reachable_rows)
 from rfp_twin.planners.plan import OFFLINE, REACHED
 from rfp_twin.planners.plan.join import join_plans
 from rfp_twin.twin.outcome import Outcome
@@ -201,13 +202,30 @@ def observe_passes(rc, catalogue: Catalogue, settings: AssignSettings, passes: i
     return out
 
 
-def passes_summary(catalogue: Catalogue, done: list[Pass]) -> dict:
-    """Every pass's row (:meth:`Pass.row`) and the cumulative completeness by priority."""
+def within_reach(rc, catalogue: Catalogue, settings: AssignSettings) -> np.ndarray:
+    """(t,) bool: the catalogue's targets that some robot reaches with a fiber the target
+    accepts, clear of obstacles (the assigner's candidates, at the planner's margin)."""
+    cands = build_candidates(rc.geom, catalogue,
+                             margin_mm=max(settings.margin_mm, rc.target_margin_mm()),
+                             arms=settings.arms,
+                             fixed={int(r): (float(a), float(b))
+                                    for r, (a, b) in rc.offline.items()})
+    return reachable_rows(catalogue, cands)
+
+
+def passes_summary(catalogue: Catalogue, done: list[Pass],
+                   reachable: np.ndarray | None = None) -> dict:
+    """Every pass's row (:meth:`Pass.row`) and the cumulative completeness by priority;
+    with ``reachable`` ((t,) bool, :func:`within_reach`) each row's ``cumulative_within_reach``
+    and the final completeness of the targets within reach too."""
     seen = np.zeros(catalogue.n_targets, dtype=bool)
     rows = []
     for p in done:
         rows.append(p.row(catalogue, seen))
         seen |= observed_rows(catalogue, p.observed)
+        if reachable is not None:
+            rows[-1]["cumulative_within_reach"] = completeness(catalogue, seen,
+                                                               reachable)["within_reach"]
     return {"catalogue": catalogue.source, "n_targets": catalogue.n_targets,
             "counts": catalogue.counts(), "n_passes": len(done), "passes": rows,
-            "completeness": completeness(catalogue, seen)}
+            "completeness": completeness(catalogue, seen, reachable)}

@@ -37,6 +37,7 @@ OBSERVED_CSV = "observed.csv"
 #: passes.csv columns (keys of :meth:`rfp_twin.twin.passes.Pass.row`).
 COLUMNS = ("pass", "start", "motion", "available_science", "assigned", "kept",
            "observed_science", "lost", "rounds", "completeness", "cumulative",
+           "cumulative_within_reach",
            "reconfiguration_s", "via_fold_s", "check2d_ok")
 
 
@@ -59,7 +60,7 @@ def passes_csv(rows: list[dict]) -> str:
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(COLUMNS)
     for r in rows:
-        w.writerow(["" if r[c] is None else (f"{r[c]:.6g}" if isinstance(r[c], float) else r[c])
+        w.writerow(["" if r.get(c) is None else (f"{r[c]:.6g}" if isinstance(r[c], float) else r[c])
                     for c in COLUMNS])
     return buf.getvalue()
 

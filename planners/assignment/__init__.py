@@ -17,10 +17,11 @@ from rfp_twin.planners.assignment.assign import (DEFAULT_EXACT, MAX_EXACT_ROBOTS
                                                  relaxed_bound)
 from rfp_twin.planners.assignment.candidates import (ARMS, LEFT, PARKED, RIGHT, Candidates,
                                                      build_candidates, parking_angles)
-from rfp_twin.planners.assignment.completeness import completeness, observed_rows
+from rfp_twin.planners.assignment.completeness import (completeness, observed_rows,
+                                                       reachable_rows)
 from rfp_twin.planners.assignment.misses import MISS_REASONS, miss_reasons
 
 __all__ = ["ARMS", "DEFAULT_EXACT", "LEFT", "MAX_EXACT_ROBOTS", "METHODS", "MISS_REASONS",
            "PARKED", "RIGHT", "miss_reasons",
            "AssignSettings", "Assignment", "Candidates", "Quotas", "assign", "build_candidates",
-           "completeness", "observed_rows", "parking_angles", "relaxed_bound"]
+           "completeness", "observed_rows", "reachable_rows", "parking_angles", "relaxed_bound"]

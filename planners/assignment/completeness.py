@@ -12,14 +12,16 @@ import numpy as np
 from rfp_twin.models.catalogue import SCIENCE, Catalogue
 
 
-def completeness(catalogue: Catalogue, observed: np.ndarray) -> dict:
+def completeness(catalogue: Catalogue, observed: np.ndarray,
+                 reachable: np.ndarray | None = None) -> dict:
     """Completeness of ``catalogue``'s science targets given ``observed`` ((t,) bool, one per
-    catalogue row).
+    catalogue row); ``reachable`` ((t,) bool, optional): the targets some robot reaches.
 
     Returns ``{"science": observed / science targets (None without science targets),
     "n_science": int, "n_observed": int, "by_priority": {priority (str, as "%g"):
     {"n": targets, "observed": observed, "completeness": share}}}``, priorities in
-    decreasing order."""
+    decreasing order; with ``reachable`` also ``"n_within_reach"`` and
+    ``"within_reach"``: observed / science targets within reach (None without any)."""
     observed = np.asarray(observed, dtype=bool).reshape(catalogue.n_targets)
     science = catalogue.kind == SCIENCE
     n_sci = int(science.sum())
@@ -29,8 +31,21 @@ def completeness(catalogue: Catalogue, observed: np.ndarray) -> dict:
         at = science & (catalogue.priority == p)
         n, k = int(at.sum()), int((seen & at).sum())
         by[f"{float(p):g}"] = {"n": n, "observed": k, "completeness": k / n}
-    return {"science": (int(seen.sum()) / n_sci) if n_sci else None, "n_science": n_sci,
-            "n_observed": int(seen.sum()), "by_priority": by}
+    out = {"science": (int(seen.sum()) / n_sci) if n_sci else None, "n_science": n_sci,
+           "n_observed": int(seen.sum()), "by_priority": by}
+    if reachable is not None:
+        near = science & np.asarray(reachable, dtype=bool).reshape(catalogue.n_targets)
+        out["n_within_reach"] = int(near.sum())
+        out["within_reach"] = int((seen & near).sum()) / int(near.sum()) if near.any() else None
+    return out
+
+
+def reachable_rows(catalogue: Catalogue, cands) -> np.ndarray:
+    """(t,) bool: the catalogue rows that some candidate pose of ``cands``
+    (:class:`rfp_twin.planners.assignment.Candidates` built on ``catalogue``) reaches."""
+    out = np.zeros(catalogue.n_targets, dtype=bool)
+    out[cands.target[cands.target >= 0]] = True
+    return out
 
 
 def observed_rows(catalogue: Catalogue, target_ids: np.ndarray) -> np.ndarray:

@@ -89,3 +89,16 @@ def test_via_the_fold_is_the_fold_then_the_unfold_and_direct_plans_between_poses
 def test_bad_pass_counts_are_one_line_errors(bad):
     with pytest.raises(RfpError, match=r"--passes .*; allowed: an integer in \[1, 100\]"):
         check_passes(bad)
+
+
+def test_targets_within_reach_are_the_assigners_candidates(three_passes):
+    from rfp_twin.twin.passes import within_reach
+
+    rc, cat, done = three_passes
+    near = within_reach(rc, cat, AssignSettings())
+    s = passes_summary(cat, done, near)
+    ids = np.concatenate([p.observed for p in done])
+    assert np.all(near[np.isin(cat.ids, ids)])               # observed targets are reachable
+    c = s["completeness"]
+    assert c["within_reach"] == pytest.approx(ids.size / np.count_nonzero(near & (cat.kind == SCIENCE)))
+    assert s["passes"][-1]["cumulative_within_reach"] == c["within_reach"]

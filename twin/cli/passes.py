@@ -18,7 +18,7 @@ from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, console,
 def run_passes_cli(rc, cat, settings, passes: int, *, seed: int, max_rounds: int, out: Path,
                    force: bool, layout: str | None) -> None:
     """Observe ``cat`` in ``passes`` passes on ``rc``'s array and write ``out``."""
-    from rfp_twin.twin.passes import observe_passes, passes_summary
+    from rfp_twin.twin.passes import observe_passes, passes_summary, within_reach
     from rfp_twin.twin.passes_files import write_passes
 
     t0 = time.perf_counter()
@@ -38,7 +38,7 @@ def run_passes_cli(rc, cat, settings, passes: int, *, seed: int, max_rounds: int
         raise fail(f"pass {bad[0].index}: the plan fails the 2D check: {len(c.collisions)} "
                    f"collision(s), min clearance {c.min_clearance_mm:.4f} mm; nothing written",
                    EXIT_COLLISION)
-    summary = passes_summary(cat, done)
+    summary = passes_summary(cat, done, within_reach(rc, cat, settings))
     summary["wall_time_s"] = time.perf_counter() - t0
     summary["motion_modes"] = ("direct: the stepwise planner from the previous poses to the "
                                "targets, used when its first run reaches every target; via "
@@ -62,13 +62,14 @@ def print_passes(summary: dict, out: Path) -> None:
     cumulative completeness by priority."""
     c = summary["counts"]
     t = Table(title=f"rfp-twin plan --passes {summary['n_passes']} -> {out}", show_header=True)
-    for name in ("pass", "left", "assigned", "kept", "rounds", "pass %", "cum. %", "motion",
-                 "motion s", "fold+unfold s", "2D"):
+    for name in ("pass", "left", "assigned", "kept", "rounds", "pass %", "cum. %",
+                 "in reach %", "motion", "motion s", "fold+unfold s", "2D"):
         t.add_column(name, justify="left" if name == "motion" else "right")
     for r in summary["passes"]:
         t.add_row(str(r["pass"]), str(r["available_science"]), str(r["assigned"]),
                   str(r["kept"]), str(r["rounds"]), _pct(r["completeness"]),
-                  _pct(r["cumulative"]), r["motion"], f"{r['reconfiguration_s']:.2f}",
+                  _pct(r["cumulative"]), _pct(r.get("cumulative_within_reach")), r["motion"],
+                  f"{r['reconfiguration_s']:.2f}",
                   "-" if r["via_fold_s"] is None else f"{r['via_fold_s']:.2f}",
                   "clear" if r["check2d_ok"] else "COLLISION")
     console.print(t)
@@ -77,5 +78,7 @@ def print_passes(summary: dict, out: Path) -> None:
     console.print(f"{summary['n_targets']} targets: {c['science']} science, {c['sky']} sky, "
                   f"{c['standard']} standard; wall {summary['wall_time_s']:.1f} s")
     console.print(f"science completeness after {summary['n_passes']} pass(es): "
-                  f"{_pct(done['science'])} % ({done['n_observed']} of {done['n_science']})")
+                  f"{_pct(done['science'])} % ({done['n_observed']} of {done['n_science']}); "
+                  f"of those within reach {_pct(done.get('within_reach'))} % "
+                  f"({done.get('n_within_reach', '-')})")
     console.print(f"by priority: {prio}")

@@ -24,3 +24,11 @@ def test_a_catalogue_without_science_has_no_completeness():
     cat = Catalogue(ids=[1], xy=[[0.0, 0.0]], priority=[1], kind=[1], fiber=[0])
     c = completeness(cat, np.array([True]))
     assert c["science"] is None and c["by_priority"] == {}
+
+
+def test_completeness_within_reach_counts_only_reachable_science():
+    cat = Catalogue(ids=[1, 2, 3, 4], xy=np.zeros((4, 2)), priority=[1] * 4, kind=[0, 0, 0, 2],
+                    fiber=[0] * 4)
+    c = completeness(cat, np.array([True, False, False, True]),
+                     reachable=np.array([True, True, False, True]))
+    assert c["science"] == 1 / 3 and c["n_within_reach"] == 2 and c["within_reach"] == 0.5

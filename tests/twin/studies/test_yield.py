@@ -206,3 +206,16 @@ def test_misses_name_the_parked_neighbours_of_long_arms():
             assert r["missed_busy"] + r["missed_parked"] + r["missed_neighbour"] + \
                 r["missed_other"] == r["n_available"] - r["targets_per_pointing"]
     assert parked["sdss"] > 0 and parked["desi"] == 0
+
+
+def test_shipped_yield_study():
+    study = load_study("yield-small")
+    assert study.families == ("sdss-apo", "sdss-lco", "desi", "raft")
+    assert study.firmware and study.check and study.exposure_s == 900.0
+    assert len(study.points) == 70 and study.n_trials == 350
+    assert {p.layout for p in study.points} == {"sdss-v-apo", "sdss-v-lco", "hex", "raft"}
+    assert {p.density for p in study.points} == {0.25, 0.5, 1.0, 2.0, 4.0}
+    assert {p.catalogue for p in study.points} == {"uniform", "clustered"}
+    sdss = [p for p in study.points if p.family.startswith("sdss")]
+    assert {(p.preset, p.buffer_mm, p.n_robots) for p in sdss} == {("sdss-v-production", 2.0, 500)}
+    assert len({p.design_id for p in study.points}) == 7
