@@ -66,7 +66,8 @@ def plan(
                                       "repeat or comma-separate."),
     targets: Optional[Path] = typer.Option(None, help="Targets CSV (robot_id + alpha_deg,beta_deg or "
                                            "x_mm,y_mm; robots left out are parked at the "
-                                           "fold) [default: seeded random]."),
+                                           "fold; probe arms: arm + theta1_deg,theta2_deg or "
+                                           "x_mm,y_mm) [default: seeded random]."),
     catalogue: Optional[str] = typer.Option(None, help="Plan a target catalogue instead: assign "
                                             "it (collision-aware, rfp-twin assign), plan, and "
                                             "assign again without the targets the plan did "
@@ -111,7 +112,8 @@ def plan(
     if preset_kind(preset) != ALPHA_BETA:             # probe arms: their own planner
         from rfp_twin.twin.cli.probe import plan_probe_cli
 
-        plan_probe_cli(preset, layout, option_values["algorithm"], seed, n_targets, out, force)
+        plan_probe_cli(preset, layout, option_values["algorithm"], seed, n_targets, out, force,
+                       targets)
         return
 
     t_start = time.perf_counter()

@@ -2,8 +2,9 @@
 
 Each command reads a run folder written by ``rfp-twin plan``, or a jaeger / kaiju trajectory
 file with ``--layout`` / ``--calibration`` (:func:`rfp_twin.twin.cli.motion_option.load_motion`),
-and builds the MuJoCo model of its spec and layout; heavy imports (mujoco, rerun) happen
-inside the commands so that ``rfp-twin --help`` stays fast.
+and builds the MuJoCo model of its spec and layout; a probe-arm run folder (MIRADAS) goes
+to :mod:`rfp_twin.twin.cli.probe` (the MuJoCo bench, its video, its recording). Heavy
+imports (mujoco, rerun) happen inside the commands so that ``rfp-twin --help`` stays fast.
 """
 from __future__ import annotations
 
@@ -81,6 +82,22 @@ def simulate_with_progress(twin, traj, faults=(), record: bool = False):
                        callback=lambda t, m, d: progress.update(task, completed=t))
 
 
+def _probe_run(run: Path, layout, calibration, preset, **alpha_beta_only) -> bool:
+    """Is ``run`` a probe-arm run folder (MIRADAS)? Options that only apply to alpha/beta
+    runs and trajectory files, when given with one, raise a one-line error."""
+    from rfp_twin.twin.probe_files import is_probe_run
+
+    if not is_probe_run(run):
+        return False
+    given = {"--layout": layout, "--calibration": calibration, "--preset": preset,
+             **{f"--{k.replace('_', '-')}": v for k, v in alpha_beta_only.items()}}
+    used = [k for k, v in given.items() if v not in (None, False, [], ())]
+    if used:
+        raise RfpError(f"{run}: {used[0]} does not apply to a probe-arm run; allowed: the run "
+                       "folder alone (it holds its own preset)")
+    return True
+
+
 @model_app.command("export")
 @one_line_errors
 def model_export(
@@ -133,6 +150,11 @@ def simulate(
     FILE.sim.json beside a trajectory file); exit 4 on any robot contact."""
     from rfp_twin.models.mjcf import ModelOptions
 
+    if _probe_run(run, layout, calibration, preset, stuck=stuck, slow=slow,
+                  encoder_offset=encoder_offset, tile_robots=tile_robots):
+        from rfp_twin.twin.cli.probe import simulate_probe_cli
+
+        return simulate_probe_cli(run)
     spec, lay, traj, _ = load_motion(run, MotionOptions(layout, calibration, preset, angles))
     faults = parse_faults(stuck, slow, encoder_offset)
     twin = build_with_progress(spec, lay, ModelOptions(timestep_s=timestep), tile_robots)
@@ -167,6 +189,11 @@ def render(
     """Simulate a run and render it offscreen to MP4 (robots coloured by state)."""
     from rfp_twin.twin.render import RenderSettings, render_run  # first: picks MUJOCO_GL before mujoco
 
+    if _probe_run(run, layout, calibration, preset, camera=camera, robot=robot, fold=fold,
+                  tile_robots=tile_robots):
+        from rfp_twin.twin.cli.probe import render_probe_cli
+
+        return render_probe_cli(run, out, width, height, fps, speedup)
     spec, lay, traj, _ = load_motion(run, MotionOptions(layout, calibration, preset, angles),
                                      to_fold=fold)
     settings = RenderSettings(width=width, height=height, fps=fps, speedup=speedup,
@@ -197,6 +224,10 @@ def record(
     """Simulate a run and write a rerun recording: arm poses, fiber traces, contacts."""
     from rfp_twin.twin.record import RecordSettings, record_run
 
+    if _probe_run(run, layout, calibration, preset, fold=fold, tile_robots=tile_robots):
+        from rfp_twin.twin.cli.probe import record_probe_cli
+
+        return record_probe_cli(run, out, dt)
     spec, lay, traj, _ = load_motion(run, MotionOptions(layout, calibration, preset, angles),
                                      to_fold=fold)
     settings = RecordSettings(dt_s=dt)
