@@ -48,7 +48,7 @@ import time
 
 import numpy as np
 
-from bench_common import machine_info
+from bench_common import add_row, machine_info, timed, write_block
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.catalogue import TELESCOPES, Disc, density_per_mm2, mock_catalogue
@@ -84,21 +84,19 @@ def run_exact(args) -> list[str]:
             for seed in args.seeds:
                 cat = field_catalogue(seed, density, levels)
                 for solver in args.solvers:
-                    t0 = time.perf_counter()
-                    a = assign(geom, cat, AssignSettings(solver=solver, margin_mm=margin,
-                                                         time_limit_s=args.time_limit))
-                    dt = time.perf_counter() - t0
+                    a, dt = timed(assign, geom, cat,
+                                  AssignSettings(solver=solver, margin_mm=margin,
+                                                 time_limit_s=args.time_limit))
                     st = a.stats
                     g = st["greedy_objective"]
                     heur = (f"{g:g} ({100 * (a.objective - g) / a.objective:.2f}, "
                             f"{st['seconds']['candidates'] + st['seconds']['greedy']:.2f})"
                             if a.status == "optimal" and a.objective > 0 else "-")
-                    lines.append(
-                        f"| {density:g} | {levels} | {seed} | {cat.n_targets} | {solver} | "
-                        f"{a.n_assigned} | {a.objective:g} | {a.bound:g} | {100 * a.gap:.2f} | "
-                        f"{a.status} | {st.get('n_components_solved', 0)} "
-                        f"({st.get('largest_component_robots', 0)}) | {dt:.2f} | {heur} |")
-                    print(lines[-1], file=sys.stderr)
+                    add_row(lines, f"{density:g}", levels, seed, cat.n_targets, solver,
+                            a.n_assigned, f"{a.objective:g}", f"{a.bound:g}",
+                            f"{100 * a.gap:.2f}", a.status,
+                            f"{st.get('n_components_solved', 0)} "
+                            f"({st.get('largest_component_robots', 0)})", f"{dt:.2f}", heur)
     return lines
 
 
@@ -126,16 +124,14 @@ def run_large(args) -> list[str]:
                 assign(geom, cat.subset(np.arange(min(1000, cat.n_targets))),
                        AssignSettings(solver=args.large_solver, margin_mm=margin))
                 warm = False
-            t0 = time.perf_counter()
-            a = assign(geom, cat, AssignSettings(solver=args.large_solver, margin_mm=margin,
-                                                 time_limit_s=args.time_limit))
-            dt = time.perf_counter() - t0
+            a, dt = timed(assign, geom, cat,
+                          AssignSettings(solver=args.large_solver, margin_mm=margin,
+                                         time_limit_s=args.time_limit))
             rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
-            lines.append(f"| {spec.name} | {args.large_layout} | {geom.n_robots} | "
-                         f"{args.large_density:g} | {levels} | {seed} | {args.large_solver} | "
-                         f"{cat.n_targets} | {a.n_assigned} | {a.objective:g} | {a.bound:g} | "
-                         f"{100 * a.gap:.3f} | {a.status} | {dt:.2f} | {rss:.2f} |")
-            print(lines[-1], file=sys.stderr)
+            add_row(lines, spec.name, args.large_layout, geom.n_robots,
+                    f"{args.large_density:g}", levels, seed, args.large_solver, cat.n_targets,
+                    a.n_assigned, f"{a.objective:g}", f"{a.bound:g}", f"{100 * a.gap:.3f}",
+                    a.status, f"{dt:.2f}", f"{rss:.2f}")
     return lines
 
 
@@ -154,17 +150,14 @@ def run_loop(args) -> list[str]:
         for density in args.loop_densities:
             for seed in args.loop_seeds:
                 cat = field_catalogue(seed, density, 1, tel)
-                t0 = time.perf_counter()
-                run = plan_catalogue(rc, cat, Settings(), seed=seed)
-                dt = time.perf_counter() - t0
+                run, dt = timed(plan_catalogue, rc, cat, Settings(), seed=seed)
                 s = run.summary(cat)
                 lost = ", ".join(str(r["lost"]) for r in run.rounds)
-                lines.append(f"| {inst} | {density:g} | {seed} | {cat.n_targets} | "
-                             f"{len(run.rounds)} ({lost}) | {s['assigned']} | {s['kept']} | "
-                             f"{s['lost']} | {100 * s['science_completeness']:.1f} | "
-                             f"{run.outcome.trajectory.duration:.2f} | "
-                             f"{'clear' if run.outcome.check.ok else 'COLLISION'} | {dt:.2f} |")
-                print(lines[-1], file=sys.stderr)
+                add_row(lines, inst, f"{density:g}", seed, cat.n_targets,
+                        f"{len(run.rounds)} ({lost})", s["assigned"], s["kept"], s["lost"],
+                        f"{100 * s['science_completeness']:.1f}",
+                        f"{run.outcome.trajectory.duration:.2f}",
+                        "clear" if run.outcome.check.ok else "COLLISION", f"{dt:.2f}")
     return lines
 
 
@@ -194,17 +187,14 @@ def run_compare(args) -> list[str]:
                 got["a0"].append(a.n_assigned)
                 got["lost0"].append(int(np.sum((a.target >= 0)
                                                & (out.plan.status != "reached"))))
-                t0 = time.perf_counter()
-                run = plan_catalogue(rc, cat, AssignSettings(), seed=seed)
-                got["t1"].append(time.perf_counter() - t0)
+                run, dt = timed(plan_catalogue, rc, cat, AssignSettings(), seed=seed)
+                got["t1"].append(dt)
                 got["a1"].append(run.summary(cat)["kept"])
                 got["lost1"].append(run.n_lost)
             lost = got["lost0"]
-            lines.append(f"| {inst} | {density:g} | {len(args.loop_seeds)} | "
-                         f"{sum(got['a0'])} | {sum(lost)} ({min(lost)}-{max(lost)}) | "
-                         f"{sum(got['a1'])} | {sum(got['lost1'])} | "
-                         f"{np.median(got['t0']):.2f} / {np.median(got['t1']):.2f} |")
-            print(lines[-1], file=sys.stderr)
+            add_row(lines, inst, f"{density:g}", len(args.loop_seeds), sum(got["a0"]),
+                    f"{sum(lost)} ({min(lost)}-{max(lost)})", sum(got["a1"]), sum(got["lost1"]),
+                    f"{np.median(got['t0']):.2f} / {np.median(got['t1']):.2f}")
     return lines
 
 
@@ -234,11 +224,7 @@ def main() -> None:
         out += run_loop(args) + [""]
     if args.only in (None, "compare"):
         out += run_compare(args) + [""]
-    text = "\n".join(out)
-    print(text)
-    if args.md_out:
-        with open(args.md_out, "w", encoding="utf-8") as fh:
-            fh.write(text + "\n")
+    write_block("\n".join(out), args.md_out)
 
 
 if __name__ == "__main__":

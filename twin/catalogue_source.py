@@ -5,8 +5,9 @@
 
 - PROCESS: ``uniform`` (Poisson) or ``clustered`` (Thomas process);
 - DENSITY and UNIT: science targets per ``deg2`` (needs a telescope's plate scale; the
-  default unit when the array has one) or per robot ``patrol`` area (the default
-  otherwise);
+  default unit when the array has one), per robot ``patrol`` area (the default
+  otherwise) or per ``robot`` (per hexagonal cell of the array's pitch,
+  :func:`robot_area_mm2`: arrays of any pitch and reach compare in this unit);
 - keys: ``sky=D`` and ``standard=D`` (calibration targets, same unit, priority
   :data:`CALIBRATION_PRIORITY`: taken for the quotas and where no science target
   competes), ``levels=K``
@@ -76,13 +77,19 @@ def _patrol_area(spec) -> float:
     return float(np.pi * (hi * hi - lo * lo))
 
 
+def robot_area_mm2(spec) -> float:
+    """Focal-plane area of one robot, mm^2: the hexagonal cell sqrt(3)/2 pitch^2 of the
+    spec's pitch (the unit ``/robot`` of mock densities)."""
+    return float(np.sqrt(3.0) / 2.0 * spec.pitch_mm ** 2)
+
+
 def parse_mock(text: str) -> tuple[str, float, str | None, dict[str, str]]:
     """``mock:PROCESS:DENSITY[/UNIT][,k=v...]`` -> (process, density, unit or None, keys)."""
     body = text[len(MOCK_PREFIX):]
     head, *extras = body.split(",")
     parts = head.split(":")
-    allowed = ("allowed: mock:uniform|clustered:DENSITY[/deg2|/patrol][,sky=D][,standard=D]"
-               "[,levels=K][,fiber=boss|apogee|any][,children=C][,sigma=MM]")
+    allowed = ("allowed: mock:uniform|clustered:DENSITY[/deg2|/patrol|/robot][,sky=D]"
+               "[,standard=D][,levels=K][,fiber=boss|apogee|any][,children=C][,sigma=MM]")
     if len(parts) != 2:
         raise CatalogueError(f"--catalogue {text!r}; {allowed}")
     process, dens = parts
@@ -111,7 +118,8 @@ def mock_from_text(text: str, geom, telescope: Telescope | None,
     area = _patrol_area(geom.spec)
 
     def per_mm2(value: float) -> float:
-        return density_per_mm2(value, unit, plate_scale_mm_per_deg=scale, patrol_area_mm2=area)
+        return density_per_mm2(value, unit, plate_scale_mm_per_deg=scale, patrol_area_mm2=area,
+                               robot_area_mm2=robot_area_mm2(geom.spec))
 
     def number(key: str, default: float) -> float:
         try:

@@ -32,7 +32,8 @@ from rfp_twin.models.catalogue import KINDS, SKY, STANDARD, Catalogue
 from rfp_twin.models.errors import AssignmentError
 from rfp_twin.planners.assignment.candidates import ARMS, Candidates, build_candidates, subset
 from rfp_twin.planners.assignment.conflicts import (conflict_cliques, conflict_degrees,
-                                                    conflict_pairs, neighbour_pairs)
+                                                    conflict_pairs, neighbour_pairs,
+                                                    symmetric_csr)
 from rfp_twin.planners.assignment.dominance import undominated
 from rfp_twin.planners.assignment.greedy import greedy_assign
 from rfp_twin.planners.assignment.problem import Problem, Rows
@@ -232,7 +233,7 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
                               "obstacles); allowed: targets on the array's patrol areas")
     t_cand = time.perf_counter()
     pairs = neighbour_pairs(geom, s.margin_mm)
-    nbr_ptr, nbr_idx = _csr(pairs, geom.n_robots)
+    nbr_ptr, nbr_idx = symmetric_csr(pairs[:, 0], pairs[:, 1], geom.n_robots)
     quota_rows = _quota_rows(geom, cands, catalogue, s.quotas)
     for members, minimum, what in quota_rows:
         if members.size < minimum:
@@ -331,15 +332,6 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
                              "total": t_solve - t0})
     return _finish(geom, catalogue, cands, chosen, bound,
                    "optimal" if all_optimal else "feasible", method, stats)
-
-
-def _csr(pairs: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Symmetric CSR (ptr (n + 1,), idx) of robot index pairs (p, 2)."""
-    rows = np.concatenate([pairs[:, 0], pairs[:, 1]])
-    cols = np.concatenate([pairs[:, 1], pairs[:, 0]])
-    order = np.lexsort((cols, rows))
-    ptr = np.searchsorted(rows[order], np.arange(n + 1)).astype(np.int64)
-    return ptr, cols[order].astype(np.int64)
 
 
 def _check_greedy_quotas(cands: Candidates, chosen: np.ndarray, quota_rows) -> None:
