@@ -28,7 +28,8 @@ pass's poses A) and ends at the next pass's targets B:
 Between two dense configurations the direct first run leaves many robots stuck, where
 the planner folds the same configurations easily (the fold is clear of everything):
 with the greedy planner on the calibrated APO instrument, from one random configuration
-to another, 268 of 500 robots stuck on seed 0 (those go via the fold). A DESI-like array
+to another, 268 of 500 robots stuck on seed 0; between passes 1-2 and 2-3 of an APO
+field at 300 targets/deg^2, 195 and 231 (those passes go via the fold). A DESI-like array
 (3 + 3 mm arms at 10.4 mm) leaves 1-6 % stuck, which the search resolves.
 
 Units: mm, deg, s.
