@@ -34,6 +34,7 @@ from rfp_twin.models.errors import PlanningError, TargetError
 from rfp_twin.models.layout.columns import robot_column
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, Plan
+from rfp_twin.planners.plan.settings import DEFAULT_GREED_PHOBIA
 from rfp_twin.planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
 from rfp_twin.planners.stepwise.recovery import (EXPLODE_DEG, explode_plan, min_clearance,
                                                  unwind_plan)
@@ -144,7 +145,8 @@ class RecoveryOutcome:
 
 
 def unwind(geom: ArrayGeometry, poses: np.ndarray, movable: np.ndarray, *, step_deg: float = 0.1,
-           algorithm: str = "greedy", greed: float = 0.9, phobia: float = 0.3,
+           algorithm: str = "greedy", greed: float = DEFAULT_GREED_PHOBIA["markov"][0],
+           phobia: float = DEFAULT_GREED_PHOBIA["markov"][1],
            resolve: bool = True, seed: int = 0, budget_mm: float = DEFAULT_BUDGET_MM,
            max_points: int = DEFAULT_MAX_POINTS) -> RecoveryOutcome:
     """Unwind ``poses`` to the fold; PlanningError when the poses collide already.

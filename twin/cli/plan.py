@@ -84,7 +84,8 @@ def plan(
     tg = rc.read_targets(targets) if targets is not None else None
     if assign_rounds < 1:
         raise TargetError(f"--assign-rounds {assign_rounds}; allowed: >= 1")
-    passes = options_from(PassOptions, option_values).passes
+    pass_options = options_from(PassOptions, option_values)
+    passes = pass_options.passes
     if passes != 1:
         if catalogue is None:
             raise TargetError(f"--passes {passes} without --catalogue; allowed: --passes with "
@@ -109,7 +110,8 @@ def plan(
         from rfp_twin.twin.cli.passes import run_passes_cli
 
         return run_passes_cli(rc, cat, assign_settings, passes, seed=seed,
-                              max_rounds=assign_rounds, out=out, force=force, layout=layout)
+                              max_rounds=assign_rounds, out=out, force=force, layout=layout,
+                              direct_stuck=pass_options.direct_stuck)
     n, rounds = rc.geom.n_robots, options.max_rounds + 1
     with progress_bar("planning", "{task.completed}/{task.total}") as progress:
         task = progress.add_task(f"{n} robots, {algorithm}", total=rounds if options.stepwise else None)

@@ -17,6 +17,7 @@ import typer
 
 from rfp_twin.models.options import option, same_option
 from rfp_twin.planners.plan import PlannerSettings
+from rfp_twin.planners.plan.settings import DEFAULT_GREED_PHOBIA
 from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, fail, one_line_errors,
                                        print_rows, progress_bar)
 from rfp_twin.twin.cli.layout_option import chosen_layout
@@ -27,6 +28,7 @@ from rfp_twin.twin.cli.shared_options import (ArrayOptions, force_option, out_op
 POSES_HELP = ("Run folder (its trajectory's end) or CSV of current angles "
               "(robot_id,alpha_deg,beta_deg).")
 RUN_OUT_HELP = "Output run folder."
+MARKOV_GREED, MARKOV_PHOBIA = DEFAULT_GREED_PHOBIA["markov"]
 #: CLI spellings of fields whose names carry their unit.
 RENAME = {"step_deg": "step"}
 
@@ -60,8 +62,9 @@ class UnwindOptions:
     resolve: bool = option(True, "Resolve deadlocks as every plan does (the poses kept as "
                            "targets); --no-resolve stops at the first deadlock, as SDSS-V's "
                            "controller unwinds")
-    greed: float = same_option(PlannerSettings, "greed", default=0.9, help="Markov greed")
-    phobia: float = same_option(PlannerSettings, "phobia", default=0.3, help="Markov phobia")
+    greed: float = same_option(PlannerSettings, "greed", default=MARKOV_GREED, help="Markov greed")
+    phobia: float = same_option(PlannerSettings, "phobia", default=MARKOV_PHOBIA,
+                                help="Markov phobia")
     seed: int = option(0, "Seed of the Markov moves")
 
 

@@ -100,7 +100,7 @@ from rfp_twin.models.errors import RfpError
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.options import option_info, option_range
 from rfp_twin.models.robot import RobotSpec
-from rfp_twin.planners.plan.settings import PlannerSettings
+from rfp_twin.planners.plan.settings import DEFAULT_GREED_PHOBIA, PlannerSettings
 from rfp_twin.twin.studies.yield_options import (YIELD_GRID_KEYS, YIELD_STUDY_KEYS, YieldOptions,
                                                  yield_help)
 
@@ -180,9 +180,11 @@ ALGORITHM_ALIASES = {"greedy": "greedy", "gc": "greedy", "markov": "markov", "mc
 GRID_DEFAULTS = {
     "preset": "sdss-v", "layout": "hex", "n_robots": 547, "pitch_mm": None,
     "alpha_length_mm": None, "beta_length_mm": None, "segment_end_mm": None,
-    "fold_alpha_deg": None, "fold_beta_deg": None, "buffer_mm": None, "step_deg": 0.1,
-    "algorithm": "greedy", "greed": 0.9, "phobia": 0.3, "resolution": "replace",
-    "direction": "reverse", "max_rounds": 50, "max_steps": None,
+    "fold_alpha_deg": None, "fold_beta_deg": None, "buffer_mm": None,
+    "step_deg": PlannerSettings().step_deg, "algorithm": "greedy",
+    "greed": DEFAULT_GREED_PHOBIA["markov"][0], "phobia": DEFAULT_GREED_PHOBIA["markov"][1],
+    "resolution": "replace", "direction": PlannerSettings().direction,
+    "max_rounds": PlannerSettings().max_rounds, "max_steps": None,
     "arm_ratio": None, "pitch_over_reach": None, "n_rafts": None,
     **{k: getattr(YieldOptions(), k) for k in YIELD_GRID_KEYS},
 }
