@@ -5,7 +5,7 @@ Run from the repository root::
 
     .venv/bin/python benchmarks/bench_passes.py [--preset desi] [--layout hex:547]
         [--kinds uniform clustered] [--density 5] [--levels 1] [--passes 5]
-        [--seeds 1 2 3] [--arms right|both] [--md-out FILE]
+        [--seeds 1 2 3] [--arms right|both] [--direct-stuck 0.1] [--md-out FILE]
 
 Each field is ``rfp-twin plan --preset P --layout L --telescope none --catalogue
 mock:KIND:DENSITY/robot[,levels=N] --passes K --seed S [--arms both]`` run in-process
@@ -37,6 +37,7 @@ from bench_common import add_row, machine_info, write_block
 from rfp_twin.planners.assignment import AssignSettings
 from rfp_twin.twin.catalogue_source import load_catalogue
 from rfp_twin.twin.passes import DIRECT, VIA_FOLD, observe_passes, passes_summary, within_reach
+from rfp_twin.twin.pass_options import DIRECT_STUCK_SHARE
 from rfp_twin.twin.pipeline import Reconfiguration
 
 
@@ -84,7 +85,8 @@ def run_fields(args) -> tuple[list[str], list[str]]:
         for seed in args.seeds:
             cat = load_catalogue(text, rc.geom, telescope=None, field_centre=None, seed=seed)
             t0 = time.perf_counter()
-            done = observe_passes(rc, cat, settings, args.passes, seed=seed)
+            done = observe_passes(rc, cat, settings, args.passes, seed=seed,
+                                  direct_stuck=args.direct_stuck)
             walls.append(time.perf_counter() - t0)
             near = within_reach(rc, cat, settings)
             s = passes_summary(cat, done, near)
@@ -137,6 +139,8 @@ def main() -> None:
     p.add_argument("--density", type=float, default=5.0, help="targets per robot")
     p.add_argument("--levels", type=int, default=1)
     p.add_argument("--passes", type=int, default=5)
+    p.add_argument("--direct-stuck", type=float, default=DIRECT_STUCK_SHARE,
+                   help="rfp-twin plan --direct-stuck")
     p.add_argument("--arms", default="right", choices=("right", "both"),
                    help="arm solutions assigned (rfp-twin plan --arms)")
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
@@ -146,7 +150,7 @@ def main() -> None:
 
     head = [f"`{' '.join(sys.argv)}`", "", machine_info("highspy", "numba"), "",
             f"preset {args.preset}, layout {args.layout}, {args.passes} passes, arms "
-            f"{args.arms}", ""]
+            f"{args.arms}, direct-stuck {args.direct_stuck:g}", ""]
     per_pass, fields = run_fields(args)
     write_block("\n".join(head + per_pass + [""] + fields), args.md_out)
 

@@ -10,10 +10,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfp_twin.models.errors import RfpError
-from rfp_twin.models.options import option
+from rfp_twin.models.options import option, option_info
 
 #: Most passes of one field.
 MAX_PASSES = 100
+#: Default share of the robots a direct motion's first run may leave stuck for the whole
+#: pipeline (deadlock search) to be tried on it. On a DESI-like array (hex:547, 5 targets
+#: per robot) passes 3-5 leave 2-6 % stuck: at 0.02 they move via the fold (4.8-5.0 s),
+#: at 0.1 the search keeps every target on the direct motion (2.5-4.4 s) for ~10 s more
+#: computing per field.
+DIRECT_STUCK_SHARE = 0.1
 
 
 def check_passes(passes) -> int:
@@ -32,6 +38,15 @@ class PassOptions:
                          "assigns the science targets not yet observed and its motion starts "
                          "at the last pass's poses (a run folder per pass, passes.csv, "
                          "observed.csv)", lo=1, hi=MAX_PASSES)
+    direct_stuck: float = option(DIRECT_STUCK_SHARE, "--passes: the direct motion from the "
+                                 "last poses is searched (deadlock resolution) when its first "
+                                 "run leaves at most this share of the robots stuck (at least "
+                                 "2); otherwise, or if it loses a target, the robots go via "
+                                 "the fold", lo=0.0, hi=1.0)
 
     def __post_init__(self) -> None:
         check_passes(self.passes)
+        v = self.direct_stuck
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0.0 <= v <= 1.0:
+            raise RfpError(f"--direct-stuck {v!r}; allowed: "
+                           f"{option_info(self, 'direct_stuck').allowed()}")

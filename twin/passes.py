@@ -12,10 +12,10 @@ pass's poses A) and ends at the next pass's targets B:
 - ``direct``: the stepwise planner between A and B (reverse planning: a run from B to A,
   played backwards; :func:`rfp_twin.planners.plan.reconfigure.plan_reconfiguration` with
   ``start``). Tried first with the planner's first run alone (a fraction of a second);
-  when that run leaves few robots stuck (:data:`DIRECT_MIN_STUCK`,
-  :data:`DIRECT_STUCK_SHARE`) the whole pipeline runs (deadlock resolution,
-  post-processing, 2D check), and its motion is used when it keeps every target, passes
-  the check and is no slower than the motion via the fold.
+  when that run leaves few robots stuck (at most :data:`DIRECT_MIN_STUCK` or the share
+  ``direct_stuck``, ``rfp-twin plan --direct-stuck``) the whole pipeline runs (deadlock
+  search, post-processing, 2D check), and its motion is used when it keeps every target,
+  passes the check and is no slower than the motion via the fold.
 - ``via fold``: otherwise, the fold of A (the previous pass's firmware-ready trajectory
   from the fold, played backwards) followed by the unfold of B (this pass's), every robot
   at rest in the folded state between them (as SDSS-V reconfigures between designs); the
@@ -28,7 +28,10 @@ pass's poses A) and ends at the next pass's targets B:
 Between two dense configurations the direct first run leaves many robots stuck, where
 the planner folds the same configurations easily (the fold is clear of everything):
 with the greedy planner on the calibrated APO instrument, from one random configuration
-to another, 268 of 500 robots stuck on seed 0.
+to another, 268 of 500 robots stuck on seed 0; between passes 1-2 and 2-3 of an APO
+field at 300 targets/deg^2, 195 and 231 (those passes go via the fold). A DESI-like array
+(3 + 3 mm arms at 10.4 mm) leaves 1-6 % stuck, which the search resolves.
+
 Units: mm, deg, s.
 """
 from __future__ import annotations
@@ -47,13 +50,14 @@ from rfp_twin.planners.assignment.completeness import (completeness, observed_ro
 from rfp_twin.planners.plan import OFFLINE, REACHED
 from rfp_twin.planners.plan.join import join_plans
 from rfp_twin.twin.outcome import Outcome
-from rfp_twin.twin.pass_options import check_passes
+from rfp_twin.twin.pass_options import DIRECT_STUCK_SHARE, check_passes
 from rfp_twin.twin.plannable import MAX_ROUNDS, CatalogueRun, plan_catalogue
 from rfp_twin.validation.checker2d import check_trajectory
 
 #: The direct motion goes through the whole pipeline (deadlock resolution) when its first
-#: run leaves at most this many robots stuck, or this share of them, whichever is more.
-DIRECT_MIN_STUCK, DIRECT_STUCK_SHARE = 2, 0.02
+#: run leaves at most this many robots stuck, or the share ``direct_stuck`` of them
+#: (:data:`rfp_twin.twin.pass_options.DIRECT_STUCK_SHARE` by default), whichever is more.
+DIRECT_MIN_STUCK = 2
 #: How the motion of a pass was made.
 FROM_FOLD, DIRECT, VIA_FOLD = "from fold", "direct", "via fold"
 
@@ -119,7 +123,8 @@ def science_observed(catalogue: Catalogue, run: CatalogueRun) -> np.ndarray:
 
 
 def reconfigure_between(rc, previous: Outcome, current: Outcome, *, seed: int = 0,
-                        direct: bool = True) -> tuple[Outcome, str, dict]:
+                        direct: bool = True, direct_stuck: float = DIRECT_STUCK_SHARE
+                        ) -> tuple[Outcome, str, dict]:
     """The motion from where ``previous`` (a plan fold -> A) leaves the robots to
     ``current``'s targets B (``current``: a plan fold -> B that keeps them all):
     ``(Outcome, mode, what the direct first run did)``, module docstring."""
@@ -139,7 +144,7 @@ def reconfigure_between(rc, previous: Outcome, current: Outcome, *, seed: int = 
             tried = {"stuck": None, "error": str(e), "seconds": time.perf_counter() - t0}
             done = None
         if done is not None and (~done).sum() <= max(DIRECT_MIN_STUCK,
-                                                      DIRECT_STUCK_SHARE * done.size):
+                                                      direct_stuck * done.size):
             out = rc.run(seed=seed, targets=B, start=A)
             tried["kept_all"] = bool(np.isin(out.plan.status, (REACHED, OFFLINE)).all())
             if tried["kept_all"] and out.check.ok:
@@ -161,7 +166,8 @@ def reconfigure_between(rc, previous: Outcome, current: Outcome, *, seed: int = 
 
 def observe_passes(rc, catalogue: Catalogue, settings: AssignSettings, passes: int, *,
                    seed: int = 0, max_rounds: int = MAX_ROUNDS, direct: bool = True,
-                   on_pass=None, **run_kwargs) -> list[Pass]:
+                   direct_stuck: float = DIRECT_STUCK_SHARE, on_pass=None,
+                   **run_kwargs) -> list[Pass]:
     """Observe ``catalogue`` in ``passes`` passes (module docstring); ``on_pass(k, text)``
     is called as each pass starts and ends. Stops early when no target of what is left is
     within reach of a robot (nothing more can be observed). Pass k plans with seed
@@ -194,7 +200,7 @@ def observe_passes(rc, catalogue: Catalogue, settings: AssignSettings, passes: i
                 on_pass(k, f"pass {k}: reconfiguring from pass {k - 1}")
             prev = out[-1].run.outcome
             motion, mode, tried = reconfigure_between(rc, prev, run.outcome, seed=seed + k - 1,
-                                                      direct=direct)
+                                                      direct=direct, direct_stuck=direct_stuck)
             via = prev.trajectory.duration + run.outcome.trajectory.duration
         seen |= observed_rows(catalogue, ids)
         out.append(Pass(k, run, left, motion, mode, via, available, ids, time.perf_counter() - t0,

@@ -16,7 +16,7 @@ from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, console,
 
 
 def run_passes_cli(rc, cat, settings, passes: int, *, seed: int, max_rounds: int, out: Path,
-                   force: bool, layout: str | None) -> None:
+                   force: bool, layout: str | None, direct_stuck: float) -> None:
     """Observe ``cat`` in ``passes`` passes on ``rc``'s array and write ``out``."""
     from rfp_twin.twin.passes import observe_passes, passes_summary, within_reach
     from rfp_twin.twin.passes_files import write_passes
@@ -30,7 +30,7 @@ def run_passes_cli(rc, cat, settings, passes: int, *, seed: int, max_rounds: int
             progress.update(task, completed=k - 1, description=f"{n} robots: {text}")
 
         done = observe_passes(rc, cat, settings, passes, seed=seed, max_rounds=max_rounds,
-                              on_pass=on_pass)
+                              direct_stuck=direct_stuck, on_pass=on_pass)
         progress.update(task, completed=passes)
     bad = [p for p in done if not (p.motion.check.ok and p.run.outcome.check.ok)]
     if bad:
@@ -40,10 +40,14 @@ def run_passes_cli(rc, cat, settings, passes: int, *, seed: int, max_rounds: int
                    EXIT_COLLISION)
     summary = passes_summary(cat, done, within_reach(rc, cat, settings))
     summary["wall_time_s"] = time.perf_counter() - t0
+    summary["direct_stuck"] = direct_stuck
     summary["motion_modes"] = ("direct: the stepwise planner from the previous poses to the "
-                               "targets, used when its first run reaches every target; via "
-                               "fold: the fold of the previous poses joined to the unfold of "
-                               "the targets, post-processed and checked as one motion")
+                               "targets (deadlock search when its first run leaves at most "
+                               "direct_stuck of the robots stuck), used when it keeps every "
+                               "target and is no slower than via the fold; via "
+                               "fold: the fold of the previous poses (the last pass's unfold "
+                               "played backwards) then the unfold of the targets, checked "
+                               "again as one motion")
     write_passes(out, cat, done, summary, layout=layout or rc.layout.name, overwrite=force)
     print_passes(summary, out)
     lost = sum(p.run.n_lost for p in done)

@@ -37,7 +37,8 @@ def plan(
                                             "[default: the typical scenario, 12 arms]."),
     targets: Optional[Path] = typer.Option(None, help="Targets CSV (robot_id + alpha_deg,beta_deg or "
                                            "x_mm,y_mm; robots left out are parked at the "
-                                           "fold) [default: seeded random]."),
+                                           "fold; probe arms: arm + theta1_deg,theta2_deg or "
+                                           "x_mm,y_mm) [default: seeded random]."),
     catalogue: Optional[str] = typer.Option(None, help="Plan a target catalogue instead: assign "
                                             "it (collision-aware, rfp-twin assign), plan, and "
                                             "assign again without the targets the plan did "
@@ -70,7 +71,7 @@ def plan(
         from rfp_twin.twin.cli.probe import plan_probe_cli
 
         plan_probe_cli(array.preset, array.layout, option_values["algorithm"], seed, n_targets,
-                       out, force)
+                       out, force, targets)
         return
 
     t_start = time.perf_counter()
@@ -83,7 +84,8 @@ def plan(
     tg = rc.read_targets(targets) if targets is not None else None
     if assign_rounds < 1:
         raise TargetError(f"--assign-rounds {assign_rounds}; allowed: >= 1")
-    passes = options_from(PassOptions, option_values).passes
+    pass_options = options_from(PassOptions, option_values)
+    passes = pass_options.passes
     if passes != 1:
         if catalogue is None:
             raise TargetError(f"--passes {passes} without --catalogue; allowed: --passes with "
@@ -108,7 +110,8 @@ def plan(
         from rfp_twin.twin.cli.passes import run_passes_cli
 
         return run_passes_cli(rc, cat, assign_settings, passes, seed=seed,
-                              max_rounds=assign_rounds, out=out, force=force, layout=layout)
+                              max_rounds=assign_rounds, out=out, force=force, layout=layout,
+                              direct_stuck=pass_options.direct_stuck)
     n, rounds = rc.geom.n_robots, options.max_rounds + 1
     with progress_bar("planning", "{task.completed}/{task.total}") as progress:
         task = progress.add_task(f"{n} robots, {algorithm}", total=rounds if options.stepwise else None)

@@ -2,8 +2,9 @@
 
 Each command reads a run folder written by ``rfp-twin plan``, or a jaeger / kaiju trajectory
 file with ``--layout`` / ``--calibration`` (:func:`rfp_twin.twin.cli.motion_option.load_motion`),
-and builds the MuJoCo model of its spec and layout; heavy imports (mujoco, rerun) happen
-inside the commands so that ``rfp-twin --help`` stays fast.
+and builds the MuJoCo model of its spec and layout; a probe-arm run folder (MIRADAS) goes
+to :mod:`rfp_twin.twin.cli.probe` (the MuJoCo bench, its video, its recording). Heavy
+imports (mujoco, rerun) happen inside the commands so that ``rfp-twin --help`` stays fast.
 """
 from __future__ import annotations
 
@@ -83,6 +84,22 @@ def simulate_with_progress(twin, traj, faults=(), record: bool = False):
                        callback=lambda t, m, d: progress.update(task, completed=t))
 
 
+def _probe_run(run: Path, motion_values: dict, **alpha_beta_only) -> bool:
+    """Is ``run`` a probe-arm run folder (MIRADAS)? Options that only apply to alpha/beta
+    runs and trajectory files, when given with one, raise a one-line error."""
+    from rfp_twin.twin.probe_files import is_probe_run
+
+    if not is_probe_run(run):
+        return False
+    given = {f"--{k}": motion_values.get(k) for k in ("layout", "calibration", "preset")}
+    given.update({f"--{k.replace('_', '-')}": v for k, v in alpha_beta_only.items()})
+    used = [k for k, v in given.items() if v not in (None, False, [], ())]
+    if used:
+        raise RfpError(f"{run}: {used[0]} does not apply to a probe-arm run; allowed: the run "
+                       "folder alone (it holds its own preset)")
+    return True
+
+
 def replay(run: Path, motion: MotionOptions, fold: bool, tile_robots: int | None):
     """``(twin, trajectory, recorded simulation report)``: the run folder or trajectory file
     ``run`` (played targets -> fold with ``fold``) simulated in its MuJoCo twin, poses
@@ -142,6 +159,11 @@ def simulate(
     FILE.sim.json beside a trajectory file); exit 4 on any robot contact."""
     from rfp_twin.models.mjcf import ModelOptions
 
+    if _probe_run(run, motion_values, stuck=stuck, slow=slow, encoder_offset=encoder_offset,
+                  tile_robots=tile_robots):
+        from rfp_twin.twin.cli.probe import simulate_probe_cli
+
+        return simulate_probe_cli(run)
     spec, lay, traj, _ = load_motion(run, options_from(MotionOptions, motion_values))
     faults = parse_faults(stuck, slow, encoder_offset)
     twin = build_with_progress(spec, lay, ModelOptions(timestep_s=timestep), tile_robots)
@@ -174,6 +196,11 @@ def render(
     """Simulate a run and render it offscreen to MP4 (robots coloured by state)."""
     from rfp_twin.twin.render import RenderSettings, render_run  # first: picks MUJOCO_GL before mujoco
 
+    if _probe_run(run, motion_values, camera=camera, robot=robot, fold=fold,
+                  tile_robots=tile_robots):
+        from rfp_twin.twin.cli.probe import render_probe_cli
+
+        return render_probe_cli(run, out, width, height, fps, speedup)
     settings = RenderSettings(width=width, height=height, fps=fps, speedup=speedup,
                               camera=camera or ("closeup" if robot is not None else "top"),
                               robot_id=robot, lean=not full_quality)
@@ -200,6 +227,10 @@ def record(
     """Simulate a run and write a rerun recording: arm poses, fiber traces, contacts."""
     from rfp_twin.twin.record import RecordSettings, record_run
 
+    if _probe_run(run, motion_values, fold=fold, tile_robots=tile_robots):
+        from rfp_twin.twin.cli.probe import record_probe_cli
+
+        return record_probe_cli(run, out, dt)
     settings = RecordSettings(dt_s=dt)
     twin, traj, sim_report = replay(run, options_from(MotionOptions, motion_values), fold,
                                     tile_robots)

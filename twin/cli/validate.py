@@ -13,6 +13,10 @@ validate TRAJECTORY.json --layout sdss-v-apo | --calibration DIR [--geometry FIL
     ``--buffer`` say otherwise), the buffer the trajectory kept
     (:mod:`rfp_twin.twin.kept_buffer`) and the 3D check; writes ``TRAJECTORY.validation.json``;
     exit 4 on any 2D or 3D collision.
+validate PROBE_RUN_DIR
+    A probe-arm run folder (``rfp-twin plan --preset miradas-probe``): the 2D check every
+    0.01 s and the FCL 3D check every 0.1 s (:mod:`rfp_twin.validation.probe`); writes
+    ``PROBE_RUN_DIR/validation.json``; exit 4 on any contact.
 calibrate-buffer --preset sdss-v --out DIR [--instrument sdss-v-apo]
     Calibrate the 2D collision buffer against the 3D meshes; writes
     ``DIR/buffer_calibration.md``, ``DIR/calibration.json`` and PNG figures.
@@ -89,6 +93,16 @@ def validate(
     from rfp_twin.twin.run_dir import TRAJECTORIES, TRAJECTORIES_TO_FOLD
 
     options = options_from(MotionOptions, motion_values)
+    from rfp_twin.twin.probe_files import is_probe_run
+
+    if is_probe_run(run):
+        if geometry is not None or fold or buffer is not None or any(
+                motion_values.get(k) is not None for k in ("layout", "calibration", "preset")):
+            raise field_error(SpecError, "--geometry/--fold/--layout/--calibration/--preset/"
+                              "--buffer", "given", "none of them with a probe-arm run folder")
+        from rfp_twin.twin.cli.probe import validate_probe_cli
+
+        return validate_probe_cli(run, out)
     is_file = is_trajectory_file(run)
     if buffer is not None and not is_file:
         raise field_error(SpecError, "--buffer", buffer, "only with a trajectory file (a run "

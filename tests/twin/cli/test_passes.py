@@ -49,3 +49,11 @@ def test_passes_without_a_catalogue_exit_2(tmp_path):
     r = run("plan", "--layout", "hex:7", "--passes", "2", "--out", str(out))
     assert r.returncode == 2 and "--passes 2 without --catalogue" in r.stderr
     assert not out.exists()
+
+
+def test_a_direct_stuck_share_out_of_range_exits_2(tmp_path):
+    out = tmp_path / "p"
+    r = run("plan", "--layout", "hex:7", "--telescope", "none", "--catalogue",
+            "mock:uniform:1/patrol", "--passes", "2", "--direct-stuck", "1.5", "--out", str(out))
+    assert r.returncode == 2 and "--direct-stuck 1.5; allowed: [0, 1]" in r.stderr
+    assert not out.exists()
