@@ -5,7 +5,7 @@ Run from the repository root::
 
     .venv/bin/python benchmarks/bench_assign.py [--only exact|large] [--seeds 1 2 3]
         [--densities 50 100 200 300 1000] [--levels 1 3] [--time-limit 10]
-        [--solvers cpsat highs]
+        [--solvers cpsat highs] [--parking fold|clear]
         [--large-layout raft:204] [--large-density 20] [--large-preset raft-6p2]
         [--large-solver greedy] [--loop-seeds 1 2 ...]
         [--loop-densities 100] [--loop-unit deg2|robot] [--loop-parking fold clear]
@@ -89,7 +89,8 @@ def run_exact(args) -> list[str]:
                 for solver in args.solvers:
                     a, dt = timed(assign, geom, cat,
                                   AssignSettings(solver=solver, margin_mm=margin,
-                                                 time_limit_s=args.time_limit))
+                                                 time_limit_s=args.time_limit,
+                                                 parking=args.parking))
                     st = a.stats
                     g = st["greedy_objective"]
                     heur = (f"{g:g} ({100 * (a.objective - g) / a.objective:.2f}, "
@@ -129,7 +130,7 @@ def run_large(args) -> list[str]:
                 warm = False
             a, dt = timed(assign, geom, cat,
                           AssignSettings(solver=args.large_solver, margin_mm=margin,
-                                         time_limit_s=args.time_limit))
+                                         time_limit_s=args.time_limit, parking=args.parking))
             rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
             add_row(lines, spec.name, args.large_layout, geom.n_robots,
                     f"{args.large_density:g}", levels, seed, args.large_solver, cat.n_targets,
@@ -220,6 +221,8 @@ def main() -> None:
     p.add_argument("--only", choices=("exact", "large", "loop", "compare"), default=None)
     p.add_argument("--loop-seeds", type=int, nargs="+", default=list(range(1, 21)))
     p.add_argument("--loop-densities", type=float, nargs="+", default=[100.0])
+    p.add_argument("--parking", choices=("fold", "clear"), default="fold",
+                   help="parking mode of the exact and large runs")
     p.add_argument("--loop-unit", choices=("deg2", "robot"), default="deg2")
     p.add_argument("--loop-parking", nargs="+", choices=("fold", "clear"), default=["fold"])
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])

@@ -38,7 +38,7 @@ RIGHT, LEFT, PARKED = 0, 1, -1
 ARMS = ("right", "left")
 #: Parking modes: the fold only, or the fold and its alpha turns (module docstring).
 PARKING_MODES = ("fold", "clear")
-DEFAULT_PARKING = "fold"
+DEFAULT_PARKING = "clear"
 #: Alpha step of the clear parking poses, deg: the fold turned by k x this, k = 1, 2, ...
 CLEAR_PARKING_STEP_DEG = 60.0
 #: Weight of a parking pose other than the fold: a tie-break far below any target's

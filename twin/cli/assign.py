@@ -44,7 +44,7 @@ def assign(
 ) -> None:
     """Assign a catalogue's targets to the robots: at most one target per robot and each
     target once, no two final poses colliding, priorities maximised; robots without a
-    target are parked at the fold. Writes assignment.csv (plan it with `rfp-twin plan
+    target are parked (--parking). Writes assignment.csv (plan it with `rfp-twin plan
     --targets OUT/assignment.csv`) and report.json."""
     from rfp_twin.planners import apply_offline
     from rfp_twin.planners.assignment import assign as run_assign

@@ -104,10 +104,11 @@ class CatalogueOptions:
     standard_quota: int = option(0, "Minimum standard fibers per region")
     sectors: int = option(1, "Regions for the quotas: equal angular sectors about the "
                           "array's centre")
-    parking: str = option("fold", "Pose of a robot without a target: fold | clear (the fold "
-                          "or the fold turned in alpha by k x 60 deg, chosen by the assigner "
-                          "to keep a folded beta arm off a neighbour's target; the fold "
-                          "unless another gains a target)", choices=("fold", "clear"))
+    parking: str = option("clear", "Pose of a robot without a target: clear (the fold or the "
+                          "fold turned in alpha by k x 60 deg, chosen by the assigner to keep "
+                          "a folded beta arm off a neighbour's target; the fold unless "
+                          "another gains a target) | fold (always the fold)",
+                          choices=("fold", "clear"))
 
     def settings(self, **changes):
         """:class:`rfp_twin.planners.assignment.AssignSettings` of these options (``changes``:

@@ -39,7 +39,7 @@ def blocked_case():
             if not reach[c] or reach[j]:
                 continue
             cat = Catalogue([7], p[None, :], [1], [0], [2])
-            if assign(geom, cat, AssignSettings(margin_mm=margin)).n_assigned == 0:
+            if assign(geom, cat, AssignSettings(margin_mm=margin, parking="fold")).n_assigned == 0:
                 return geom, margin, cat, j
     raise AssertionError("no point of a folded arm that blocks the centre robot")
 
