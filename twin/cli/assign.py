@@ -24,8 +24,9 @@ STEP = next(f for f in fields(PlannerSettings) if f.name == "step_deg")
 STEP_INFO = option_info(PlannerSettings, "step_deg")
 CATALOGUE_HELP = ("A catalogue file (CSV or Parquet: id; x_mm,y_mm or x_wok_mm,y_wok_mm or "
                   "ra_deg,dec_deg; optional priority, kind science|sky|standard, fiber "
-                  "boss|apogee|any) or a mock: mock:uniform|clustered:DENSITY[/deg2|/patrol|"
-                  "/robot][,sky=D][,standard=D][,levels=K][,fiber=F][,children=C][,sigma=MM].")
+                  "boss|apogee|any, exposures) or a mock: mock:uniform|clustered:DENSITY[/deg2|/patrol|"
+                  "/robot][,sky=D][,standard=D][,levels=K][,fiber=F][,children=C][,sigma=MM]"
+                  "[,exposures=N].")
 
 
 @one_line_errors
