@@ -159,9 +159,11 @@ class Assignment:
         return int(np.count_nonzero(self.target >= 0))
 
     def counts(self) -> dict[str, int]:
-        """Robots per kind of pose, {science, sky, standard, parked}."""
+        """Robots per kind of pose, {science, sky, standard, parked, parked_off_fold} (the
+        last: parked robots at a clear parking pose, not the fold)."""
         out = {name: int(np.count_nonzero(self.kind == k)) for k, name in enumerate(KINDS)}
         out["parked"] = int(np.count_nonzero(self.target < 0))
+        out["parked_off_fold"] = int(self.stats.get("parked_off_fold", 0))
         return out
 
 
@@ -203,6 +205,7 @@ def _finish(geom, cat: Catalogue, cands: Candidates, chosen: np.ndarray, bound: 
     ids = np.full(tgt.size, -1, dtype=np.int64)
     ids[on] = cat.ids[tgt[on]]
     objective = float(cands.weight[chosen][on].sum())     # parking penalties left out
+    stats["parked_off_fold"] = int(np.count_nonzero(~on & (chosen != cands.parking)))
     return Assignment(robot_ids=geom.robot_ids.copy(), target=tgt, target_ids=ids,
                       angles=cands.angles[chosen].copy(), arm=cands.arm[chosen].copy(),
                       slot=cands.slot[chosen].copy(), kind=kind, objective=objective,

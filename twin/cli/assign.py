@@ -89,7 +89,8 @@ def print_report(report: dict, out: Path) -> None:
                       f"sky, {cat['n_standard']} standard)"),
         ("candidates", f"{st['n_candidates']} poses"),
         ("assigned", f"{report['assigned']} ({c['science']} science, {c['sky']} sky, "
-                     f"{c['standard']} standard), {c['parked']} parked"),
+                     f"{c['standard']} standard), {c['parked']} parked "
+                     f"({c.get('parked_off_fold', 0)} off the fold)"),
         ("objective / bound", f"{report['objective']:g} / {report['bound']:g} (gap "
                               f"{100 * report['gap']:.2f} %)"),
         ("solver / status", f"{report['solver']} / {report['status']}"),

@@ -61,6 +61,7 @@ def test_a_folded_neighbour_blocks_the_target_and_a_clear_parking_keeps_it():
         moved = parked & np.any(np.abs(a.angles - fold_angles) > 1e-9, axis=1)
         # the neighbour in the way leaves the fold: beta stays folded, alpha turned
         assert moved[j] and moved.sum() <= 2, solver
+        assert a.counts()["parked_off_fold"] == moved.sum()
         assert np.allclose(a.angles[moved, 1], fold_angles[moved, 1])
         turn = (a.angles[moved, 0] - fold_angles[moved, 0]) / CLEAR_PARKING_STEP_DEG
         assert np.allclose(turn, np.round(turn)) and np.all(np.round(turn) % 6 != 0)
