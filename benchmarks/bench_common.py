@@ -99,6 +99,20 @@ def md_table(header: list[str], rows: list[list[str]]) -> str:
     return "\n".join(out)
 
 
+def add_row(lines: list[str], *cells) -> None:
+    """Append one markdown table row of ``cells`` (each shown with ``str``) to ``lines``
+    and echo it to stderr, so a long run shows its progress."""
+    lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    print(lines[-1], file=sys.stderr)
+
+
+def timed(fn, *args, **kwargs):
+    """``(fn(*args, **kwargs), wall seconds)``."""
+    t0 = time.perf_counter()
+    out = fn(*args, **kwargs)
+    return out, time.perf_counter() - t0
+
+
 def write_block(text: str, md_out: str | Path | None) -> None:
     """Print the markdown block of a run; with ``md_out``, also write it to that file."""
     print(text)

@@ -15,7 +15,8 @@ the arms that stay still first, random ones, travel-time with up to 8 re-plans (
 (priority-based search, Ma et al. 2019) on what they leave: success rate, makespan, start-stop cycles, checks and planning time beside the
 paper's (Sect. 8: 97 % from park, makespan median 102.55 s, range 96-114 s; 93 %
 chained, median 90.6 s, max 108 s). Every plan found is passed through the independent
-check (rfp_twin.validation.probe) at buffer 0.
+2D check (rfp_twin.validation.probe, every 0.01 s) and the FCL 3D check (every 0.1 s) at
+buffer 0. The typical part also runs the plan in MuJoCo (contacts, motor tracking).
 
 Usage (from the repository root)::
 
@@ -74,19 +75,49 @@ def typical(repeat: int) -> None:
           f"{PAPER_TYPICAL['optimum_steps']} |")
     print(f"| most start-stop cycles of an arm | {plan.max_start_stop} | "
           f"{PAPER_TYPICAL['max_start_stop']} |")
+    from rfp_twin.twin.sim.probe import simulate_probe_plan
+    from rfp_twin.validation.probe import check_probe_plan, check_probe_plan_3d
+
+    c2 = check_probe_plan(kind.spec, plan.breakpoints(), dt_s=0.01, max_start_stop=1)
+    c3 = check_probe_plan_3d(kind.spec, plan.breakpoints(), dt_s=0.1)
+    sim = simulate_probe_plan(plan)
+    print(f"| 2D check (every 0.01 s, bodies) | {'clear' if c2.ok else 'FAIL'}, min gap "
+          f"{c2.min_gap_mm:.2f} mm | - |")
+    print(f"| 3D check (FCL, every 0.1 s) | {'clear' if c3.ok else 'FAIL'}, min distance "
+          f"{c3.min_distance_mm:.2f} mm, {len(c3.contacts)} contacts | - |")
+    print(f"| MuJoCo run ({sim.duration_s:.0f} s, {sim.steps} steps) | {sim.n_contact_steps} "
+          f"contact steps, tracking <= {sim.max_tracking_deg:.3f} deg, loop gap <= "
+          f"{sim.max_loop_gap_mm:.4f} mm, {sim.wall_s:.0f} s wall | - |")
     print("\n```\n" + plan.tables() + "\n```\n")
 
 
-#: Policies compared: name -> (priority, re-plans, search-tree nodes after them).
-ROWS = {"paper": ("travel-time", 0, 0), "still": ("still-first", 0, 0),
-        "random": ("random", 0, 0), "replans": ("travel-time", 8, 0),
-        "search": ("travel-time", 8, 24)}
+#: Policies compared: name -> ProbePlanSettings fields. "windows": after the re-plans,
+#: passes with make-way windows (arms not yet planned stand at their start for the first
+#: 12 / 24 / 36 s, so earlier arms wait for them to leave) and retreat / stop-over
+#: vertices in every roadmap; "search": the re-plans, then priority-based search.
+ROWS = {"paper": dict(priority="travel-time"), "still": dict(priority="still-first"),
+        "random": dict(priority="random"), "replans": dict(priority="travel-time", replans=8),
+        "search": dict(priority="travel-time", replans=8, search_nodes=24),
+        "windows": dict(priority="travel-time", replans=8, windows_s=(12.0, 24.0, 36.0),
+                        retreat_deg=(15.0, 30.0, 45.0))}   # = RECOVERING (rfp-twin plan)
 
 
-def many(n_sets: int, seed: int, check_dt: float, rows: list[str]) -> None:
+def policy_label(kw: dict) -> str:
+    """One line naming a policy's settings."""
+    out = kw["priority"]
+    if kw.get("replans"):
+        out += f", {kw['replans']} re-plans"
+    if kw.get("windows_s"):
+        out += f", windows {'/'.join(f'{w:g}' for w in kw['windows_s'])} s + retreats"
+    if kw.get("search_nodes"):
+        out += f", then search ({kw['search_nodes']} nodes)"
+    return out
+
+
+def many(n_sets: int, seed: int, check_dt: float, rows: list[str], check_3d: bool) -> None:
     from rfp_twin.models.kinds import load_kind
     from rfp_twin.planners.roadmap.probe import ProbePlanSettings, plan_probe_arms, random_target_set
-    from rfp_twin.validation.probe import check_probe_plan
+    from rfp_twin.validation.probe import check_probe_plan, check_probe_plan_3d
 
     kind = load_kind("miradas-probe")
     park = kind.park()
@@ -100,13 +131,14 @@ def many(n_sets: int, seed: int, check_dt: float, rows: list[str]) -> None:
         current = goal
     print(f"## {n_sets} target sets of 6-12 targets (seed {seed})\n")
     print("| mode | priority | solved | makespan median (s) | range (s) | most cycles | "
-          "checks median | planning median / max (s) | 2D check | most passes |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "checks median | planning median / max (s) | 2D check | 3D check (min mm) | most passes "
+          "| unsolved sets |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for mode in ("park", "chained"):
         for name in rows:
-            policy, replans, nodes = ROWS[name]
-            settings = ProbePlanSettings(priority=policy, replans=replans, search_nodes=nodes)
+            settings = ProbePlanSettings(**ROWS[name])
             ok, spans, cycles, checks, secs, bad, passes = 0, [], 0, [], [], 0, 1
+            bad3, min3, unsolved = 0, np.inf, []
             pairs = [(park, g) for g in from_park] if mode == "park" else chain
             for k, (start, goal) in enumerate(pairs):
                 plan = plan_probe_arms(kind, start, goal, settings, np.random.default_rng(seed + k))
@@ -120,12 +152,19 @@ def many(n_sets: int, seed: int, check_dt: float, rows: list[str]) -> None:
                     rep = check_probe_plan(kind.spec, plan.breakpoints(), dt_s=check_dt,
                                            max_start_stop=settings.max_start_stop)
                     bad += not rep.ok
-            label = policy + (f", {replans} re-plans" if replans else "") + (
-                f", then search ({nodes} nodes)" if nodes else "")
+                    if check_3d:
+                        rep3 = check_probe_plan_3d(kind.spec, plan.breakpoints(), dt_s=0.1)
+                        bad3 += not rep3.ok
+                        min3 = min(min3, rep3.min_distance_mm)
+                else:
+                    unsolved.append(k)
+            label = policy_label(ROWS[name])
             print(f"| {mode} | {label} | {ok}/{n_sets} = {100 * ok / n_sets:.1f} % | "
                   f"{np.median(spans):.1f} | {min(spans):.0f}-{max(spans):.0f} | {cycles} | "
                   f"{np.median(checks):.0f} | {np.median(secs):.3f} / {max(secs):.3f} | "
-                  f"{'clear' if bad == 0 else f'{bad} FAIL'} | {passes} |")
+                  f"{'clear' if bad == 0 else f'{bad} FAIL'} | "
+                  f"{('clear' if bad3 == 0 else f'{bad3} FAIL') + f' ({min3:.2f})' if check_3d else '-'}"
+                  f" | {passes} | {' '.join(map(str, unsolved)) or '-'} |", flush=True)
     print("\nSabater 2018 Sect. 8: from park 97 %, makespan median 102.55 s, range 96-114 s; "
           "chained 93 %, median 90.6 s, max 108 s (travel-time priorities, one pass).\n")
 
@@ -139,13 +178,14 @@ def main() -> None:
     ap.add_argument("--rows", nargs="+", choices=sorted(ROWS), default=list(ROWS),
                     help="policies of the many-set part")
     ap.add_argument("--check-dt", type=float, default=0.01, help="2D check sample spacing, s")
+    ap.add_argument("--no-3d", action="store_true", help="skip the FCL 3D check (0.1 s spacing)")
     args = ap.parse_args()
     print(f"{machine_info('numba')}\n")
     print(f"command: `{command_line()}`\n")
     if args.part in ("typical", "all"):
         typical(args.repeat)
     if args.part in ("many", "all"):
-        many(args.sets, args.seed, args.check_dt, args.rows)
+        many(args.sets, args.seed, args.check_dt, args.rows, not args.no_3d)
 
 
 if __name__ == "__main__":

@@ -45,7 +45,8 @@ def atomic_write_text(path: str | Path, text: str) -> None:
 @contextmanager
 def atomic_folder(out: str | Path):
     """Write a whole folder atomically: yields a temp folder beside ``out`` to fill; when
-    the block ends without error its files get mode 0644, it gets 0755 and it replaces
+    the block ends without error its files get mode 0644, it and its sub-folders 0755 (a
+    folder may hold whole run folders) and it replaces
     ``out`` (an existing ``out`` is moved aside first and removed after); on any error the
     temp folder is removed and ``out`` left as it was. The caller decides beforehand
     whether an existing ``out`` may be replaced."""
@@ -54,8 +55,8 @@ def atomic_folder(out: str | Path):
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
         yield tmp
-        for f in tmp.iterdir():
-            f.chmod(0o644)
+        for f in tmp.rglob("*"):
+            f.chmod(0o755 if f.is_dir() else 0o644)
         tmp.chmod(0o755)
         if out.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))

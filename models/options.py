@@ -88,6 +88,14 @@ def option_info(cls_or_obj, name: str) -> OptionInfo:
     raise KeyError(f"{name!r} is not a declared option of {cls_or_obj!r}")
 
 
+def option_range(cls_or_obj, name: str) -> tuple[float | None, float | None, bool]:
+    """``(low, high, integer)`` of the number option ``name`` (None: unbounded that side;
+    ``integer``: the field is declared ``int``)."""
+    info = option_info(cls_or_obj, name)
+    kind = next(f.type for f in dataclasses.fields(cls_or_obj) if f.name == name)
+    return info.lo, info.hi, "int" in str(kind)
+
+
 def declared(cls_or_obj) -> list[dataclasses.Field]:
     """The fields of ``cls_or_obj`` declared with :func:`option`, in order."""
     return [f for f in dataclasses.fields(cls_or_obj) if KEY in f.metadata]

@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from rfp_twin.models.errors import KindError, SpecError
 from rfp_twin.models.kinds.base import ALPHA_BETA
+from rfp_twin.models.spec_fields import check_range, fields_from_tables, with_fields
 
 # The SDSS-V production numbers below are those of SDSS-V's own software: the coordinate
 # package coordio (defaults) and the production planner kaiju 1.4.1.
@@ -132,29 +133,16 @@ class RobotSpec:
 
     def with_overrides(self, **changes: Any) -> RobotSpec:
         """A copy with some fields changed; the copy is validated again."""
-        unknown = set(changes) - set(self.__dataclass_fields__)
-        if unknown:
-            raise SpecError(f"{self.source}: unknown field(s) {sorted(unknown)}")
-        return replace(self, **changes)
+        return with_fields(self, **changes)
 
 
 # -- validation ------------------------------------------------------------------
-def _check_range(spec: RobotSpec, name: str, value: float, lo: float, hi: float,
-                 lo_open: bool = False) -> None:
-    bad = not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value)
-    if not bad:
-        bad = value < lo or value > hi or (lo_open and value == lo)
-    if bad:
-        left = "(" if lo_open else "["
-        raise SpecError(f"{spec.source}: field '{name}' = {value!r}; allowed: {left}{lo}, {hi}]")
-
-
 def _check_pair(spec: RobotSpec, name: str, value, lo: float, hi: float,
                 lo_open: bool = False, ordered: bool = False) -> None:
     if not isinstance(value, tuple) or len(value) != 2:
         raise SpecError(f"{spec.source}: field '{name}' = {value!r}; allowed: a pair [alpha, beta]")
     for axis, v in zip(("alpha", "beta"), value):
-        _check_range(spec, f"{name}[{axis}]", v, lo, hi, lo_open)
+        check_range(spec, f"{name}[{axis}]", v, lo, hi, lo_open)
     if ordered and not value[0] < value[1]:
         raise SpecError(f"{spec.source}: field '{name}' = {list(value)}; allowed: [low, high] with low < high")
 
@@ -162,9 +150,9 @@ def _check_pair(spec: RobotSpec, name: str, value, lo: float, hi: float,
 def _validate(s: RobotSpec) -> None:
     if not isinstance(s.name, str) or not s.name:
         raise SpecError(f"{s.source}: field 'name' = {s.name!r}; allowed: a non-empty string")
-    _check_range(s, "alpha_length_mm", s.alpha_length_mm, 0.0, 1000.0, lo_open=True)
-    _check_range(s, "beta_length_mm", s.beta_length_mm, 0.0, 1000.0, lo_open=True)
-    _check_range(s, "pitch_mm", s.pitch_mm, 0.0, 10000.0, lo_open=True)
+    check_range(s, "alpha_length_mm", s.alpha_length_mm, 0.0, 1000.0, lo_open=True)
+    check_range(s, "beta_length_mm", s.beta_length_mm, 0.0, 1000.0, lo_open=True)
+    check_range(s, "pitch_mm", s.pitch_mm, 0.0, 10000.0, lo_open=True)
     _check_pair(s, "alpha_limits_deg", s.alpha_limits_deg, -720.0, 720.0, ordered=True)
     _check_pair(s, "beta_limits_deg", s.beta_limits_deg, -720.0, 720.0, ordered=True)
     _check_pair(s, "max_speed_deg_s", s.max_speed_deg_s, 0.0, 1e5, lo_open=True)
@@ -176,16 +164,16 @@ def _validate(s: RobotSpec) -> None:
         if not lo <= v <= hi:
             raise SpecError(f"{s.source}: field 'fold_deg[{axis}]' = {v}; allowed: [{lo}, {hi}] "
                             f"({axis}_limits_deg)")
-    _check_range(s, "buffer_mm", s.buffer_mm, 0.0, 100.0, lo_open=True)
-    _check_range(s, "fiducial_buffer_mm", s.fiducial_buffer_mm, 0.0, 100.0)
-    _check_range(s, "path_delay_s", s.path_delay_s, 0.0, 60.0)
-    _check_range(s, "segment_start_mm", s.segment_start_mm, 0.0, 1000.0)
+    check_range(s, "buffer_mm", s.buffer_mm, 0.0, 100.0, lo_open=True)
+    check_range(s, "fiducial_buffer_mm", s.fiducial_buffer_mm, 0.0, 100.0)
+    check_range(s, "path_delay_s", s.path_delay_s, 0.0, 60.0)
+    check_range(s, "segment_start_mm", s.segment_start_mm, 0.0, 1000.0)
     if isinstance(s.segment_end_mm, str):
         if s.segment_end_mm != SDSS_PRODUCTION_SEGMENT:
             raise SpecError(f"{s.source}: field 'segment_end_mm' = {s.segment_end_mm!r}; allowed: "
                             f"a length in mm or \"{SDSS_PRODUCTION_SEGMENT}\"")
     else:
-        _check_range(s, "segment_end_mm", s.segment_end_mm, 0.0, 1000.0)
+        check_range(s, "segment_end_mm", s.segment_end_mm, 0.0, 1000.0)
     if s.segment_end() < s.segment_start_mm:
         raise SpecError(f"{s.source}: field 'segment_end_mm' = {s.segment_end():.3f}; allowed: "
                         f">= segment_start_mm ({s.segment_start_mm})")
@@ -294,31 +282,10 @@ def spec_from_dict(data: dict, source: str = "<memory>") -> RobotSpec:
     if unknown:
         raise SpecError(f"{source}: unknown table(s) {sorted(unknown)}; allowed: robot, collision, "
                         + ", ".join(sorted(_OTHER_TABLES)))
-    kwargs: dict[str, Any] = {}
-    for table, fields in (("robot", _ROBOT_FIELDS), ("collision", _COLLISION_FIELDS)):
-        section = data.get(table)
-        if not isinstance(section, dict):
-            raise SpecError(f"{source}: missing table [{table}]; allowed: a preset with [robot] "
-                            "and [collision] tables")
-        extra = set(section) - set(fields)
-        if extra:
-            raise SpecError(f"{source}: unknown field(s) {sorted(extra)} in [{table}]; allowed: "
-                            + ", ".join(fields))
-        for key, attr in fields.items():
-            if key not in section:
-                if key in _OPTIONAL:
-                    continue
-                raise SpecError(f"{source}: missing field '{key}' in [{table}]; allowed: every "
-                                f"field of [{table}] set (see models/presets/sdss-v.toml)")
-            value = section[key]
-            if isinstance(value, list):
-                value = tuple(value)
-            if isinstance(value, int) and not isinstance(value, bool):
-                value = float(value)
-            if isinstance(value, tuple):
-                value = tuple(float(v) if isinstance(v, int) and not isinstance(v, bool) else v
-                              for v in value)
-            kwargs[attr] = value
+    kwargs = fields_from_tables(data, {"robot": _ROBOT_FIELDS, "collision": _COLLISION_FIELDS},
+                                source, optional=_OPTIONAL,
+                                missing_table="a preset with [robot] and [collision] tables",
+                                missing_field=" (see models/presets/sdss-v.toml)")
     return RobotSpec(source=source, **kwargs)
 
 

@@ -209,6 +209,33 @@ class Trajectory:
         return cls.from_dict(data, str(path))
 
 
+def join_trajectories(first: Trajectory, second: Trajectory) -> Trajectory:
+    """``first`` then ``second`` (the same robots, in the same order): ``second``'s times
+    shifted by ``first.duration``; a robot whose ``first`` path ends earlier holds its pose
+    until then. Each robot's ``second`` path must start where its ``first`` path ends.
+
+    Raises TrajectoryError naming the robot and axis when they do not."""
+    if not np.array_equal(first.robot_ids, second.robot_ids):
+        raise TrajectoryError("join: the two trajectories move different robots")
+    shift = first.duration
+    times: list[list[np.ndarray]] = [[], []]
+    angles: list[list[np.ndarray]] = [[], []]
+    for ax in range(2):
+        for i in range(first.n_robots):
+            t1, a1 = first.times[ax][i], first.angles[ax][i]
+            t2, a2 = second.times[ax][i] + shift, second.angles[ax][i]
+            if abs(a2[0] - a1[-1]) > 1e-9:
+                raise TrajectoryError(f"join: robot {int(first.robot_ids[i])} axis {AXES[ax]} "
+                                      f"ends at {a1[-1]!r} deg and starts again at {a2[0]!r} "
+                                      "deg; allowed: the same angle")
+            if t2[0] <= t1[-1]:                 # the joint is one point
+                t2, a2 = t2[1:], a2[1:]
+            times[ax].append(np.concatenate([t1, t2]))
+            angles[ax].append(np.concatenate([a1, a2]))
+    return Trajectory(first.robot_ids, (tuple(times[0]), tuple(times[1])),
+                      (tuple(angles[0]), tuple(angles[1])))
+
+
 def simplify_exact(t: np.ndarray, a: np.ndarray, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
     """Drop interior points lying on the line through their neighbours (within tol deg)."""
     if t.size <= 2:

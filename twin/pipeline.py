@@ -223,20 +223,21 @@ class Reconfiguration:
 
     # ----------------------------------------------------------------------- the steps
     def plan(self, targets: np.ndarray, rng: np.random.Generator, *,
-             on_round: Callable[[int, int], None] | None = None
-             ) -> tuple[Plan, ApfResult | None]:
-        """Plan fold -> targets. Returns ``(Plan, ApfResult or None)``.
+             on_round: Callable[[int, int], None] | None = None,
+             start: np.ndarray | None = None) -> tuple[Plan, ApfResult | None]:
+        """Plan fold -> targets, or ``start`` ((n, 2) deg, clear poses) -> targets.
+        Returns ``(Plan, ApfResult or None)``.
 
         ``on_round(round, n_stuck)`` is called after each stepwise planner run."""
         if self._field is not None:
             from rfp_twin.planners.fields import plan_apf_reconfiguration
 
             return plan_apf_reconfiguration(self.geom, targets, self._field, offline=self.offline,
-                                            algorithm=self.options.algorithm)
+                                            algorithm=self.options.algorithm, start=start)
         o = self.options
         plan = plan_reconfiguration(self.geom, targets, o.planner_settings(), rng,
                                     offline=self.offline, resolve=o.resolve != "none",
-                                    progress=on_round)
+                                    progress=on_round, start=start)
         return plan, None
 
     def deliver(self, plan: Plan, progress: Callable[[int, int], None] | None = None
@@ -262,8 +263,10 @@ class Reconfiguration:
     def run(self, *, seed: int = 0, targets: np.ndarray | None = None,
             on_round: Callable[[int, int], None] | None = None,
             on_stage: Callable[[str], None] | None = None,
-            on_progress: Callable[[str, int, int], None] | None = None) -> Outcome:
-        """Targets (given, or drawn from ``seed``), plan, post-process and check.
+            on_progress: Callable[[str, int, int], None] | None = None,
+            start: np.ndarray | None = None) -> Outcome:
+        """Targets (given, or drawn from ``seed``), plan, post-process and check; the
+        motion starts folded, or at ``start`` ((n, 2) deg: where the robots stand).
 
         The random sequence is the one of ``rfp-twin plan --seed SEED``: the same
         generator draws the targets and then drives the planner.
@@ -284,7 +287,7 @@ class Reconfiguration:
         preload = None if self.options.raw else preload_cached(warm_kernels(DELIVERY),
                                                                after=PLANNER_KERNEL)
         try:
-            plan, field = self.plan(tg, rng, on_round=on_round)
+            plan, field = self.plan(tg, rng, on_round=on_round, start=start)
             if preload is not None:
                 preload.release()       # a planner without that kernel: load them now
             seconds["plan"] = time.perf_counter() - t0

@@ -65,7 +65,8 @@ def lost_pairs(rc, assignment: Assignment, status: np.ndarray) -> set[tuple[int,
 
 
 def plan_catalogue(rc, catalogue: Catalogue, settings: AssignSettings, *, seed: int = 0,
-                   max_rounds: int = MAX_ROUNDS, on_round=None, **run_kwargs) -> CatalogueRun:
+                   max_rounds: int = MAX_ROUNDS, on_round=None, start: np.ndarray | None = None,
+                   **run_kwargs) -> CatalogueRun:
     """Assign, plan, forbid what the plan lost, again (module docstring).
 
     rc : :class:`rfp_twin.twin.pipeline.Reconfiguration`; the assignment keeps the
@@ -75,8 +76,9 @@ def plan_catalogue(rc, catalogue: Catalogue, settings: AssignSettings, *, seed: 
     deadlock resolution, no post-processing: a fraction of a second): robots it leaves
     deadlocked lose their targets to the next round at once; a round whose first run
     keeps every target is then run through the whole pipeline (the same seed gives the
-    same first run). ``on_round(k, info)`` is called after each round; ``run_kwargs`` go
-    to ``rc.run``."""
+    same first run). ``start`` ((n, 2) deg): where the robots stand (the last pass's
+    poses), planned from directly [default: folded]. ``on_round(k, info)`` is called after
+    each round; ``run_kwargs`` go to ``rc.run``."""
     from rfp_twin.twin.pipeline import Reconfiguration
 
     forbidden = set(settings.forbidden)
@@ -97,11 +99,11 @@ def plan_catalogue(rc, catalogue: Catalogue, settings: AssignSettings, *, seed: 
                 "assign_s": t1 - t0}
         lost: set = set()
         if quick is not None and k < max_rounds - 1:
-            first, _ = quick.plan(assignment.angles, np.random.default_rng(seed))
+            first, _ = quick.plan(assignment.angles, np.random.default_rng(seed), start=start)
             lost = lost_pairs(rc, assignment, first.status)
             info["first_run_lost"] = len(lost)
         if not lost:
-            outcome = rc.run(seed=seed, targets=assignment.angles, **run_kwargs)
+            outcome = rc.run(seed=seed, targets=assignment.angles, start=start, **run_kwargs)
             lost = lost_pairs(rc, assignment, outcome.plan.status)
             info["fold_s"] = float(outcome.trajectory.duration)
         info.update({"lost": len(lost), "plan_s": time.perf_counter() - t1})

@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from rfp_twin.models.errors import KindError, LayoutError, RfpError
+from rfp_twin.models.errors import KindError, LayoutError, RfpError, TargetError
 from rfp_twin.models.files import atomic_folder
 from rfp_twin.models.kinds import MIRADAS_PROBE, load_kind
 from rfp_twin.planners.plan.kinds import require_planner_kind
-from rfp_twin.planners.roadmap.probe import (ProbePlan, ProbePlanSettings, plan_probe_arms,
+from rfp_twin.planners.roadmap.probe import (RECOVERING, ProbePlan, ProbePlanSettings, plan_probe_arms,
                                      random_target_set, typical_scenario)
 from rfp_twin.validation.probe import ProbeCheckReport, check_probe_plan
 
@@ -36,9 +36,11 @@ class ProbeRun:
     check: ProbeCheckReport | None
     seed: int
     scenario: str
+    preset: str = ""
 
     def summary(self) -> dict:
-        out = {"kind": MIRADAS_PROBE, "preset": self.plan.kind.spec.source, "seed": self.seed,
+        out = {"kind": MIRADAS_PROBE, "preset": self.preset or self.plan.kind.spec.source,
+               "seed": self.seed,
                "scenario": self.scenario, **self.plan.summary()}
         if self.check is not None:
             out["check2d"] = {k: v for k, v in asdict(self.check).items()}
@@ -47,9 +49,13 @@ class ProbeRun:
 
 def plan_probe_bench(preset: str = "miradas-probe", layout: str | None = None, *, seed: int = 0,
                      n_targets: int | None = None, algorithm: str = "roadmap",
-                     priority: str = "travel-time") -> ProbeRun:
-    """Plan the bench of a probe-arm preset from park: the typical scenario
-    (``n_targets`` None) or ``n_targets`` random targets drawn with ``seed``; then check it.
+                     priority: str = "travel-time", targets: Path | None = None,
+                     settings: ProbePlanSettings | None = None) -> ProbeRun:
+    """Plan the bench of a probe-arm preset from park: the targets of CSV ``targets``
+    (:func:`rfp_twin.twin.probe_files.read_probe_targets`), else the typical scenario
+    (``n_targets`` None) or ``n_targets`` random targets drawn with ``seed``; then check it
+    in 2D (``settings``: the paper's with ``priority``, then our recovery,
+    :data:`~rfp_twin.planners.roadmap.probe.RECOVERING`, by default).
 
     ``layout`` may be ``miradas-N`` (N arms on the preset's bench) or None (the preset's
     own count). Any ``algorithm`` but ``roadmap`` raises :class:`KindError`.
@@ -68,19 +74,29 @@ def plan_probe_bench(preset: str = "miradas-probe", layout: str | None = None, *
         n = len(layout_by_name(layout, 1.0).robot_ids)
         kind = ProbeArmKind(kind.spec.with_overrides(n_arms=n))
     rng = np.random.default_rng(seed)
-    if n_targets is None:
+    if targets is not None and n_targets is not None:
+        raise TargetError(f"--targets {str(targets)!r} and --n-targets {n_targets}; allowed: "
+                          "one of them")
+    if targets is not None:
+        from rfp_twin.twin.probe_files import read_probe_targets
+
+        start = kind.park()
+        goal = read_probe_targets(targets, kind, start)
+        scenario = f"targets {targets}"
+    elif n_targets is None:
         start, goal = typical_scenario(kind)
         scenario = "typical"
     else:
         start = kind.park()
         goal = random_target_set(kind, rng, n_targets, start)
         scenario = f"random {n_targets} targets"
-    plan = plan_probe_arms(kind, start, goal, ProbePlanSettings(priority=priority), rng)
+    settings = settings or ProbePlanSettings(priority=priority, **RECOVERING)
+    plan = plan_probe_arms(kind, start, goal, settings, rng)
     check = None
     if plan.success:
         check = check_probe_plan(kind.spec, plan.breakpoints(), buffer_mm=0.0, dt_s=CHECK_DT_S,
                                  max_start_stop=plan.settings.max_start_stop)
-    return ProbeRun(plan, check, seed, scenario)
+    return ProbeRun(plan, check, seed, scenario, str(preset))
 
 
 def write_probe_run(run: ProbeRun, out: Path, overwrite: bool = False) -> Path:

@@ -22,7 +22,6 @@ Both write a run folder whose ``trajectories.json`` is the motion (start -> end)
 """
 from __future__ import annotations
 
-import csv
 import sys
 import time
 from dataclasses import dataclass, replace
@@ -35,11 +34,13 @@ from rfp_twin.models.errors import PlanningError, TargetError
 from rfp_twin.models.layout.columns import robot_column
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.plan import DEADLOCKED, OFFLINE, REACHED, Plan
+from rfp_twin.planners.plan.settings import DEFAULT_GREED_PHOBIA
 from rfp_twin.planners.postprocess import DEFAULT_BUDGET_MM, DEFAULT_MAX_POINTS, postprocess
 from rfp_twin.planners.stepwise.recovery import (EXPLODE_DEG, explode_plan, min_clearance,
                                                  unwind_plan)
 from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 from rfp_twin.twin.run_dir import load_run, write_run
+from rfp_twin.twin.targets_csv import read_rows, robot_values
 from rfp_twin.validation.checker2d import CheckReport, check_trajectory
 
 #: Collisions that start within this time of the motion's start were there before it, s.
@@ -59,32 +60,12 @@ def poses_from_csv(path: str | Path, geom: ArrayGeometry, *, encoder: bool = Fal
     """(n, 2) model deg in layout order from ``robot_id,alpha_deg,beta_deg`` rows (every
     robot once); ``encoder``: the file's angles are encoder angles."""
     path = Path(path)
-    try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            rows = list(csv.DictReader(fh))
-    except FileNotFoundError:
-        raise TargetError(f"{path}: poses file not found") from None
+    rows = read_rows(path, "pose")
     need = ("robot_id", "alpha_deg", "beta_deg")
     if not rows or any(c not in rows[0] for c in need):
         raise TargetError(f"{path}: columns {sorted(rows[0]) if rows else []}; allowed: "
                           "robot_id,alpha_deg,beta_deg (one row per robot)")
-    index = {int(r): k for k, r in enumerate(geom.robot_ids)}
-    poses = np.full((geom.n_robots, 2), np.nan)
-    for line, row in enumerate(rows, start=2):
-        try:
-            rid, a, b = int(row["robot_id"]), float(row["alpha_deg"]), float(row["beta_deg"])
-        except (TypeError, ValueError):
-            raise TargetError(f"{path}:{line}: robot_id must be an integer and alpha_deg, "
-                              "beta_deg numbers") from None
-        if rid not in index:
-            raise TargetError(f"{path}:{line}: unknown robot id {rid}; allowed: the robots of "
-                              f"layout {geom.layout.name!r}")
-        if not np.isnan(poses[index[rid], 0]):
-            raise TargetError(f"{path}:{line}: robot {rid} has a second row; allowed: one row "
-                              "per robot")
-        if not (np.isfinite(a) and np.isfinite(b)):
-            raise TargetError(f"{path}:{line}: robot {rid}: NaN/inf angle; allowed: finite deg")
-        poses[index[rid]] = (a, b)
+    poses, _ = robot_values(path, rows, geom, need[1:], "angle")
     missing = np.flatnonzero(np.isnan(poses[:, 0]))
     if missing.size:
         raise TargetError(f"{path}: robot {int(geom.robot_ids[missing[0]])} has no row "
@@ -164,7 +145,8 @@ class RecoveryOutcome:
 
 
 def unwind(geom: ArrayGeometry, poses: np.ndarray, movable: np.ndarray, *, step_deg: float = 0.1,
-           algorithm: str = "greedy", greed: float = 0.9, phobia: float = 0.3,
+           algorithm: str = "greedy", greed: float = DEFAULT_GREED_PHOBIA["markov"][0],
+           phobia: float = DEFAULT_GREED_PHOBIA["markov"][1],
            resolve: bool = True, seed: int = 0, budget_mm: float = DEFAULT_BUDGET_MM,
            max_points: int = DEFAULT_MAX_POINTS) -> RecoveryOutcome:
     """Unwind ``poses`` to the fold; PlanningError when the poses collide already.

@@ -39,18 +39,55 @@ WOK_COLUMNS = ("x_wok_mm", "y_wok_mm")
 NOMINAL_FIBERS = {name: (x, y) for name, x, y in SDSS_V_DEFAULTS["fibers"]}
 
 
+def read_rows(path: Path, noun: str) -> list[dict]:
+    """The rows of CSV file ``path`` as dicts; TargetError when it is missing (``noun``:
+    what the file holds, e.g. "target")."""
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            return list(csv.DictReader(fh))
+    except FileNotFoundError:
+        raise TargetError(f"{path}: {noun}s file not found") from None
+
+
+def robot_values(path: Path, rows: list[dict], geom: ArrayGeometry, columns: tuple[str, ...],
+                 noun: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(values (n_robots, len(columns)), line (n_robots,))`` in layout order from ``rows``
+    (one per robot at most: ``robot_id`` and the numbers of ``columns``); a robot without
+    a row has NaN values and line 0. TargetError naming the file line for a bad number, an
+    unknown robot, a second row or NaN/inf (``noun``: what a row holds)."""
+    index = {int(r): k for k, r in enumerate(geom.robot_ids)}
+    vals = np.full((geom.n_robots, len(columns)), np.nan)
+    line_of = np.zeros(geom.n_robots, dtype=np.int64)
+    for line, row in enumerate(rows, start=2):
+        try:
+            rid = int(row["robot_id"])
+            v = [float(row[k]) for k in columns]
+        except (TypeError, ValueError):
+            raise TargetError(f"{path}:{line}: robot_id must be an integer and "
+                              f"{', '.join(columns)} numbers") from None
+        if rid not in index:
+            raise TargetError(f"{path}:{line}: unknown robot id {rid}; allowed: the robots of "
+                              f"layout {geom.layout.name!r} (ids {int(geom.robot_ids.min())}.."
+                              f"{int(geom.robot_ids.max())})")
+        if line_of[index[rid]]:
+            raise TargetError(f"{path}:{line}: robot {rid} has a second {noun} row (first on "
+                              f"line {int(line_of[index[rid]])}); allowed: one row per robot")
+        if not np.all(np.isfinite(v)):
+            raise TargetError(f"{path}:{line}: robot {rid}: NaN/inf {noun}; allowed: finite "
+                              "numbers")
+        vals[index[rid]] = v
+        line_of[index[rid]] = line
+    return vals, line_of
+
+
 def read_targets_csv(path: str | Path, geom: ArrayGeometry) -> np.ndarray:
     """Targets ``(n_robots, 2)`` deg in layout order from a CSV file (module docstring)."""
     path = Path(path)
     spec = geom.spec
-    try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            rows = list(csv.DictReader(fh))
-    except FileNotFoundError:
-        raise TargetError(f"{path}: targets file not found") from None
+    rows = read_rows(path, "target")
+    cols = set(rows[0]) if rows else set()
     if not rows:
         raise TargetError(f"{path}: no target rows")
-    cols = set(rows[0])
     # angles win over positions when a file has both (an assignment.csv carries both)
     by_angles = set(ANGLE_COLUMNS) <= cols
     by_wok = set(WOK_COLUMNS) <= cols and not by_angles
@@ -62,34 +99,16 @@ def read_targets_csv(path: str | Path, geom: ArrayGeometry) -> np.ndarray:
         raise TargetError(f"{path}: columns x_wok_mm,y_wok_mm on layout {geom.layout.name!r}; "
                           "allowed: wok positions on a calibrated instrument (sdss-v-apo, "
                           "sdss-v-lco, sdss-v-curved, a calibration folder), else x_mm,y_mm")
-    vals = np.full((geom.n_robots, 2), np.nan)
-    fiber_of = np.full(geom.n_robots, "", dtype=object)
-    line_of = np.zeros(geom.n_robots, dtype=np.int64)
-    index = {int(r): k for k, r in enumerate(geom.robot_ids)}
-    first_line: dict[int, int] = {}
     keys = ANGLE_COLUMNS if by_angles else (WOK_COLUMNS if by_wok else XY_COLUMNS)
+    vals, line_of = robot_values(path, rows, geom, keys, "target")
+    fiber_of = np.full(geom.n_robots, "", dtype=object)
+    index = {int(r): k for k, r in enumerate(geom.robot_ids)}
     for line, row in enumerate(rows, start=2):
-        try:
-            rid = int(row["robot_id"])
-            v = [float(row[k]) for k in keys]
-        except (TypeError, ValueError):
-            raise TargetError(f"{path}:{line}: robot_id must be an integer and {keys} numbers") from None
-        if rid not in index:
-            raise TargetError(f"{path}:{line}: unknown robot id {rid}; allowed ids: "
-                              f"{int(geom.robot_ids.min())}..{int(geom.robot_ids.max())}")
-        if rid in first_line:
-            raise TargetError(f"{path}:{line}: robot {rid} has a second target row (first on line "
-                              f"{first_line[rid]}); allowed: one row per robot")
-        first_line[rid] = line
-        if not np.all(np.isfinite(v)):
-            raise TargetError(f"{path}:{line}: robot {rid}: NaN/inf target; allowed: finite numbers")
         fiber = (row.get("fiber") or "").strip().lower()
         if fiber and fiber not in FIBERS:
-            raise TargetError(f"{path}:{line}: robot {rid}: field 'fiber' = {row['fiber']!r}; "
-                              f"allowed: {', '.join(FIBERS)}")
-        vals[index[rid]] = v
-        fiber_of[index[rid]] = fiber
-        line_of[index[rid]] = line
+            raise TargetError(f"{path}:{line}: robot {int(row['robot_id'])}: field 'fiber' = "
+                              f"{row['fiber']!r}; allowed: {', '.join(FIBERS)}")
+        fiber_of[index[int(row["robot_id"])]] = fiber
     missing = np.isnan(vals[:, 0])
     if not by_xy:
         vals[missing] = parking_angles(geom)[missing]

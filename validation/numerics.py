@@ -65,6 +65,25 @@ def clamp01(x):
     return x
 
 
+@njit(cache=True, inline="always")
+def closest_parameters(a, b, c, e, f, s_lines, eps):
+    """Parameters ``(s, t)`` in [0, 1] of the closest points of the segments P0 + s u and
+    Q0 + t v (2D or 3D), from ``a = u.u``, ``b = u.v``, ``c = u.w``, ``e = v.v``,
+    ``f = v.w`` (``w = P0 - Q0``) and ``s_lines``, the parameter on P of the closest points
+    of the two lines, clamped (used when both segments have a length). A segment with
+    squared length <= ``eps`` (mm^2) is a point."""
+    if a <= eps:
+        return 0.0, (clamp01(f / e) if e > eps else 0.0)
+    if e <= eps:
+        return clamp01(-c / a), 0.0
+    t = (b * s_lines + f) / e
+    if t < 0.0:
+        return clamp01(-c / a), 0.0
+    if t > 1.0:
+        return clamp01((b - c) / a), 1.0
+    return s_lines, t
+
+
 @njit(cache=True)
 def segment_distance(p0x, p0y, p1x, p1y, q0x, q0y, q1x, q1y):
     """Distance between segments P0P1 and Q0Q1, mm (scalars)."""
@@ -77,28 +96,11 @@ def segment_distance(p0x, p0y, p1x, p1y, q0x, q0y, q1x, q1y):
     a = ux * ux + uy * uy          # |u|^2
     e = vx * vx + vy * vy          # |v|^2
     f = vx * wx + vy * wy          # v.w
-    if a <= POINT_EPS2:
-        s = 0.0
-        t = clamp01(f / e) if e > POINT_EPS2 else 0.0
-    else:
-        c = ux * wx + uy * wy      # u.w
-        if e <= POINT_EPS2:
-            t = 0.0
-            s = clamp01(-c / a)
-        else:
-            b = ux * vx + uy * vy  # u.v
-            cr = ux * vy - uy * vx
-            if abs(cr) > PARALLEL_EPS * math.sqrt(a * e):
-                s = clamp01((vx * wy - vy * wx) / cr)
-            else:
-                s = 0.0
-            t = (b * s + f) / e
-            if t < 0.0:
-                t = 0.0
-                s = clamp01(-c / a)
-            elif t > 1.0:
-                t = 1.0
-                s = clamp01((b - c) / a)
+    c = ux * wx + uy * wy          # u.w
+    b = ux * vx + uy * vy          # u.v
+    cr = ux * vy - uy * vx
+    s = clamp01((vx * wy - vy * wx) / cr) if abs(cr) > PARALLEL_EPS * math.sqrt(a * e) else 0.0
+    s, t = closest_parameters(a, b, c, e, f, s, POINT_EPS2)
     dx = wx + ux * s - vx * t
     dy = wy + uy * s - vy * t
     return math.sqrt(dx * dx + dy * dy)

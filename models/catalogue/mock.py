@@ -1,8 +1,10 @@
 """Mock catalogues: uniform (Poisson) and clustered (Thomas / Neyman-Scott) targets in a disc.
 
 Densities are in targets per mm^2 of the focal plane; :func:`density_per_mm2` converts
-targets per deg^2 (with a plate scale) or targets per robot patrol area (generic arrays
-without a telescope). Every draw takes a ``numpy.random.Generator``: same generator
+targets per deg^2 (with a plate scale), targets per robot patrol area (generic arrays
+without a telescope) or targets per robot (per focal-plane area of one robot, e.g. the
+hexagonal cell sqrt(3)/2 pitch^2 of a hex grid: the unit in which arrays of different
+pitch and reach compare, since a robot takes at most one target). Every draw takes a ``numpy.random.Generator``: same generator
 state, same catalogue.
 
 - Uniform: the number of targets is Poisson(density x area), positions uniform by area.
@@ -23,7 +25,7 @@ from rfp_twin.models.errors import CatalogueError
 #: Most targets a mock catalogue may hold (~40 bytes each: a 0.4 GB catalogue).
 MAX_MOCK_TARGETS = 10_000_000
 PROCESSES = ("uniform", "clustered")
-DENSITY_UNITS = ("deg2", "patrol")
+DENSITY_UNITS = ("deg2", "patrol", "robot")
 
 
 @dataclass(frozen=True)
@@ -39,9 +41,11 @@ class Disc:
 
 
 def density_per_mm2(value: float, unit: str, *, plate_scale_mm_per_deg: float | None = None,
-                    patrol_area_mm2: float | None = None) -> float:
+                    patrol_area_mm2: float | None = None,
+                    robot_area_mm2: float | None = None) -> float:
     """Targets per mm^2 of ``value`` targets per deg^2 (``unit="deg2"``, with the plate scale
-    in mm/deg) or per robot patrol area (``unit="patrol"``, with that area in mm^2).
+    in mm/deg), per robot patrol area (``unit="patrol"``, with that area in mm^2) or per
+    robot (``unit="robot"``, with the focal-plane area of one robot in mm^2).
 
     Raises CatalogueError for a density that is not a finite number > 0, an unknown unit,
     or a unit without its scale."""
@@ -59,6 +63,11 @@ def density_per_mm2(value: float, unit: str, *, plate_scale_mm_per_deg: float | 
             raise CatalogueError(f"mock catalogue: patrol area {patrol_area_mm2!r} mm^2; "
                                  "allowed: > 0")
         return float(value) / float(patrol_area_mm2)
+    if unit == "robot":
+        if not robot_area_mm2 or robot_area_mm2 <= 0.0:
+            raise CatalogueError(f"mock catalogue: area per robot {robot_area_mm2!r} mm^2; "
+                                 "allowed: > 0")
+        return float(value) / float(robot_area_mm2)
     raise CatalogueError(f"mock catalogue: density unit {unit!r}; allowed: "
                          f"{', '.join(DENSITY_UNITS)}")
 

@@ -17,13 +17,14 @@ the allowed range, in one line.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from rfp_twin.models.errors import KindError, SpecError
+from rfp_twin.models.spec_fields import check_range, fields_from_tables, with_fields
 
 #: [robot] fields: name -> (low, high) of the allowed range (None: checked otherwise).
 _ROBOT = {
@@ -143,12 +144,7 @@ class ProbeArmSpec:
 
     def with_overrides(self, **changes: Any) -> "ProbeArmSpec":
         """A copy with some fields changed, validated again."""
-        from dataclasses import replace
-
-        unknown = set(changes) - {f.name for f in fields(self)}
-        if unknown:
-            raise SpecError(f"{self.source}: unknown field(s) {sorted(unknown)}")
-        return replace(self, **changes)
+        return with_fields(self, **changes)
 
 
 def d34_mm(spec: ProbeArmSpec, theta1_rad: np.ndarray, theta2_rad: np.ndarray) -> np.ndarray:
@@ -163,33 +159,27 @@ def _fail(spec: ProbeArmSpec, name: str, value, allowed: str) -> SpecError:
     return SpecError(f"{spec.source}: field '{name}' = {value!r}; allowed: {allowed}")
 
 
-def _number(spec: ProbeArmSpec, name: str, value, lo: float, hi: float, open_lo: bool) -> None:
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    if not ok or value < lo or value > hi or (open_lo and value == lo):
-        raise _fail(spec, name, value, f"{'(' if open_lo else '['}{lo}, {hi}]")
-
-
 def _validate(s: ProbeArmSpec) -> None:
     if not isinstance(s.name, str) or not s.name:
         raise _fail(s, "name", s.name, "a non-empty string")
     for name, (lo, hi) in _ROBOT.items():
-        _number(s, name, getattr(s, name), lo, hi, open_lo=True)
+        check_range(s, name, getattr(s, name), lo, hi, lo_open=True)
     for name, (lo, hi) in _PAIRS.items():
         v = getattr(s, name)
         if not isinstance(v, tuple) or len(v) != 2:
             raise _fail(s, name, v, "a pair [theta1, theta2]" if "limits" not in name
                         else "a pair [low, high]")
         for k, x in enumerate(v):
-            _number(s, f"{name}[{k}]", x, lo, hi, open_lo=name == "max_speed_deg_s")
+            check_range(s, f"{name}[{k}]", x, lo, hi, lo_open=name == "max_speed_deg_s")
     for name in ("theta1_limits_deg", "theta2_limits_deg"):
         lo, hi = getattr(s, name)
         if not lo < hi:
             raise _fail(s, name, list(getattr(s, name)), "[low, high] with low < high")
     for name, (lo, hi) in _COLLISION.items():
-        _number(s, name, getattr(s, name), lo, hi, open_lo=name.endswith("radius_mm"))
+        check_range(s, name, getattr(s, name), lo, hi, lo_open=name.endswith("radius_mm"))
     for key, (lo, hi) in _BENCH.items():
         name = _BENCH_ATTR.get(key, key)
-        _number(s, name, getattr(s, name), lo, hi, open_lo=key != "first_arm_deg")
+        check_range(s, name, getattr(s, name), lo, hi, lo_open=key != "first_arm_deg")
     if not isinstance(s.n_arms, int) or isinstance(s.n_arms, bool) or not 1 <= s.n_arms <= 64:
         raise _fail(s, "n_arms", s.n_arms, "an integer in [1, 64]")
     _validate_linkage(s)
@@ -226,8 +216,9 @@ def _validate_linkage(s: ProbeArmSpec) -> None:
 
 
 # -- loading ---------------------------------------------------------------------
-_TABLES = {"robot": ["name", "description", *_ROBOT, *_PAIRS],
-           "collision": list(_COLLISION), "bench": [*_BENCH, "n_arms"]}
+_TABLES = {"robot": {k: k for k in ("name", "description", *_ROBOT, *_PAIRS)},
+           "collision": {k: k for k in _COLLISION},
+           "bench": {k: _BENCH_ATTR.get(k, k) for k in (*_BENCH, "n_arms")}}
 _OPTIONAL = {"description", "first_arm_deg", "n_arms"}
 
 
@@ -250,28 +241,8 @@ def probe_spec_from_dict(data: dict, source: str = "<memory>") -> ProbeArmSpec:
     if unknown:
         raise SpecError(f"{source}: unknown table(s) {sorted(unknown)}; allowed: "
                         + ", ".join(_TABLES))
-    kwargs: dict[str, Any] = {}
-    for table, names in _TABLES.items():
-        section = data.get(table)
-        if not isinstance(section, dict):
-            raise SpecError(f"{source}: missing table [{table}]; allowed: a probe-arm preset "
-                            "with [robot], [collision] and [bench] (see models/presets/"
-                            "miradas-probe.toml)")
-        extra = set(section) - set(names)
-        if extra:
-            raise SpecError(f"{source}: unknown field(s) {sorted(extra)} in [{table}]; "
-                            f"allowed: {', '.join(names)}")
-        for key in names:
-            if key not in section:
-                if key in _OPTIONAL:
-                    continue
-                raise SpecError(f"{source}: missing field '{key}' in [{table}]; allowed: "
-                                f"every field of [{table}] set")
-            value = section[key]
-            if isinstance(value, list):
-                value = tuple(float(v) if isinstance(v, int) and not isinstance(v, bool) else v
-                              for v in value)
-            elif isinstance(value, int) and not isinstance(value, bool) and key != "n_arms":
-                value = float(value)
-            kwargs[_BENCH_ATTR.get(key, key) if table == "bench" else key] = value
+    kwargs = fields_from_tables(
+        data, _TABLES, source, optional=_OPTIONAL, integers={"n_arms"},
+        missing_table="a probe-arm preset with [robot], [collision] and [bench] (see "
+                      "models/presets/miradas-probe.toml)")
     return ProbeArmSpec(source=source, **kwargs)

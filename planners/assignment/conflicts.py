@@ -27,9 +27,21 @@ def neighbour_pairs(geom, margin_mm: float) -> np.ndarray:
     return geom.layout.neighbour_pairs(reach)
 
 
+def symmetric_csr(a: np.ndarray, b: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR ``(ptr (n + 1,), idx)`` of the index pairs ``(a[k], b[k])`` taken both ways, each
+    row sorted (rows and columns: indices below ``n``)."""
+    rows = np.concatenate([a, b])
+    cols = np.concatenate([b, a])
+    order = np.lexsort((cols, rows))
+    ptr = np.searchsorted(rows[order], np.arange(n + 1)).astype(np.int64)
+    return ptr, cols[order].astype(np.int64)
+
+
 @njit(cache=True)
-def _scan(seg, ptr, pairs, buffer, margin, out_a, out_b, fill):
-    """Count (fill False) or write (fill True) the conflicting candidate pairs."""
+def _scan(seg, ptr, pairs, buffer, margin, degree, out_a, out_b):
+    """Visit every conflicting candidate pair ``(a, b)`` of the robot ``pairs``: add 1 to
+    ``degree[a]`` and ``degree[b]``, and write the k-th pair to ``out_a[k], out_b[k]`` while
+    they have room (empty outputs: count only). Returns the number of pairs."""
     k = 0
     for p in range(pairs.shape[0]):
         i = pairs[p, 0]
@@ -39,7 +51,9 @@ def _scan(seg, ptr, pairs, buffer, margin, out_a, out_b, fill):
             for b in range(ptr[j], ptr[j + 1]):
                 if segments_within(seg[a, 0], seg[a, 1], seg[a, 2], seg[a, 3],
                                    seg[b, 0], seg[b, 1], seg[b, 2], seg[b, 3], r):
-                    if fill:
+                    degree[a] += 1
+                    degree[b] += 1
+                    if k < out_a.shape[0]:
                         out_a[k] = a
                         out_b[k] = b
                     k += 1
@@ -51,11 +65,12 @@ def conflict_pairs(cands, pairs: np.ndarray, buffer: np.ndarray,
     """Conflicting candidate pairs ``(a, b)``, two (k,) int64 arrays; ``a`` belongs to the
     lower robot of its robot pair, and the pairs come grouped by robot pair then ``a``
     (the clique grouping of the module docstring)."""
-    empty = np.zeros(0, dtype=np.int64)
-    k = _scan(cands.seg, cands.ptr, pairs, buffer, float(margin_mm), empty, empty, False)
+    degree = np.zeros(cands.n, dtype=np.int64)
+    none = degree[:0]
+    k = _scan(cands.seg, cands.ptr, pairs, buffer, float(margin_mm), degree, none, none)
     a = np.empty(k, dtype=np.int64)
     b = np.empty(k, dtype=np.int64)
-    _scan(cands.seg, cands.ptr, pairs, buffer, float(margin_mm), a, b, True)
+    _scan(cands.seg, cands.ptr, pairs, buffer, float(margin_mm), degree, a, b)
     return a, b
 
 
@@ -78,22 +93,8 @@ def conflict_cliques(a: np.ndarray, b: np.ndarray, robot: np.ndarray
     return ptr, idx
 
 
-@njit(cache=True)
-def _degrees(seg, ptr, pairs, buffer, margin, out):
-    for p in range(pairs.shape[0]):
-        i = pairs[p, 0]
-        j = pairs[p, 1]
-        r = buffer[i] + buffer[j] + margin
-        for a in range(ptr[i], ptr[i + 1]):
-            for b in range(ptr[j], ptr[j + 1]):
-                if segments_within(seg[a, 0], seg[a, 1], seg[a, 2], seg[a, 3],
-                                   seg[b, 0], seg[b, 1], seg[b, 2], seg[b, 3], r):
-                    out[a] += 1
-                    out[b] += 1
-
-
 def conflict_degrees(cands, pairs: np.ndarray, buffer: np.ndarray, margin_mm: float) -> np.ndarray:
     """(c,) int64 number of candidate poses of other robots each candidate collides with."""
     out = np.zeros(cands.n, dtype=np.int64)
-    _degrees(cands.seg, cands.ptr, pairs, buffer, float(margin_mm), out)
+    _scan(cands.seg, cands.ptr, pairs, buffer, float(margin_mm), out, out[:0], out[:0])
     return out

@@ -14,6 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from rfp_twin.planners.assignment.conflicts import symmetric_csr
+
 
 def exclusion_csr(cands, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """CSR (ptr (c + 1,), idx sorted per row) of ``N(c)``: the conflict pairs ``(a, b)`` both
@@ -22,17 +24,15 @@ def exclusion_csr(cands, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.n
     real = np.flatnonzero(tgt >= 0)
     order = real[np.lexsort((real, tgt[real]))]
     ta, tb = _same_target_pairs(order, tgt[order], cands.robot[order])
-    rows = np.concatenate([a, b, ta, tb])
-    cols = np.concatenate([b, a, tb, ta])
-    o = np.lexsort((cols, rows))
-    ptr = np.searchsorted(rows[o], np.arange(cands.n + 1)).astype(np.int64)
-    return ptr, cols[o].astype(np.int64)
+    return symmetric_csr(np.concatenate([a, ta]), np.concatenate([b, tb]), cands.n)
 
 
 @njit(cache=True)
-def _same_target_pairs(order, t, robot):
-    """Pairs of candidates (of different robots) on one target; ``order`` sorted by ``t``."""
-    count = 0
+def _scan_same_target(order, t, robot, out_a, out_b):
+    """Visit the pairs of candidates (of different robots) on one target, ``order`` sorted
+    by ``t``; the k-th pair is written to ``out_a[k], out_b[k]`` while they have room (empty
+    outputs: count only). Returns the number of pairs."""
+    k = 0
     m = order.shape[0]
     s = 0
     while s < m:
@@ -42,23 +42,21 @@ def _same_target_pairs(order, t, robot):
         for i in range(s, e):
             for j in range(i + 1, e):
                 if robot[i] != robot[j]:
-                    count += 1
-        s = e
-    out_a = np.empty(count, dtype=np.int64)
-    out_b = np.empty(count, dtype=np.int64)
-    k = 0
-    s = 0
-    while s < m:
-        e = s
-        while e < m and t[e] == t[s]:
-            e += 1
-        for i in range(s, e):
-            for j in range(i + 1, e):
-                if robot[i] != robot[j]:
-                    out_a[k] = order[i]
-                    out_b[k] = order[j]
+                    if k < out_a.shape[0]:
+                        out_a[k] = order[i]
+                        out_b[k] = order[j]
                     k += 1
         s = e
+    return k
+
+
+def _same_target_pairs(order, t, robot):
+    """Pairs of candidates (of different robots) on one target: two (k,) int64 arrays."""
+    none = np.zeros(0, dtype=np.int64)
+    count = _scan_same_target(order, t, robot, none, none)
+    out_a = np.empty(count, dtype=np.int64)
+    out_b = np.empty(count, dtype=np.int64)
+    _scan_same_target(order, t, robot, out_a, out_b)
     return out_a, out_b
 
 

@@ -47,6 +47,16 @@ def _clear_of_neighbours(seg, i, a, chosen, nbr_ptr, nbr_idx, buffer, margin, sk
 
 
 @njit(cache=True)
+def _holders(target, chosen, n_targets):
+    """(max(n_targets, 1),) int64: the robot whose ``chosen`` pose takes each target (-1: none)."""
+    holder = np.full(max(n_targets, 1), -1, dtype=np.int64)
+    for i in range(chosen.shape[0]):
+        if target[chosen[i]] >= 0:
+            holder[target[chosen[i]]] = i
+    return holder
+
+
+@njit(cache=True)
 def greedy_kernel(seg, robot, target, weight, ptr, order, n_targets, nbr_ptr, nbr_idx, buffer,
                   margin, chosen, allowed, limit=-1):
     """Greedy pass over ``order`` (candidate indices): fills ``chosen`` (n,) with one
@@ -72,79 +82,6 @@ def greedy_kernel(seg, robot, target, weight, ptr, order, n_targets, nbr_ptr, nb
     return count
 
 
-@njit(cache=True)
-def improve_kernel(seg, robot, target, weight, ptr, n_targets, nbr_ptr, nbr_idx, buffer,
-                   margin, chosen, allowed, max_sweeps):
-    """Local improvement of ``chosen`` in place (module docstring); returns the sweeps run."""
-    n = chosen.shape[0]
-    holder = np.full(max(n_targets, 1), -1, dtype=np.int64)
-    for i in range(n):
-        if target[chosen[i]] >= 0:
-            holder[target[chosen[i]]] = i
-    sweeps = 0
-    changed = True
-    while changed and sweeps < max_sweeps:
-        changed = False
-        sweeps += 1
-        for i in range(n):
-            for a in range(ptr[i], ptr[i + 1]):
-                cur = chosen[i]
-                if not allowed[a] or weight[a] <= weight[cur] or a == cur:
-                    continue
-                t = target[a]
-                # the robots in the way of a: the holder of its target, and neighbours whose
-                # poses collide with it; at most one may be moved
-                hit = -1
-                n_hit = 0
-                if t >= 0 and holder[t] >= 0 and holder[t] != i:
-                    hit = holder[t]
-                    n_hit = 1
-                for q in range(nbr_ptr[i], nbr_ptr[i + 1]):
-                    j = nbr_idx[q]
-                    if j == hit:
-                        continue
-                    if _clash(seg, a, chosen[j], buffer[i] + buffer[j] + margin):
-                        n_hit += 1
-                        hit = j
-                        if n_hit > 1:
-                            break
-                if n_hit > 1:
-                    continue
-                if n_hit == 0:
-                    _move(i, a, chosen, target, holder)
-                    changed = True
-                    continue
-                j = hit
-                cj = chosen[j]
-                best = -1
-                best_gain = 1e-12
-                for b in range(ptr[j], ptr[j + 1]):
-                    if b == cj or not allowed[b]:
-                        continue
-                    tb = target[b]
-                    if tb >= 0 and (tb == t or (holder[tb] >= 0 and holder[tb] != j
-                                                and holder[tb] != i)):
-                        continue
-                    if tb >= 0 and holder[tb] == i and tb != target[cur]:
-                        continue
-                    gain = weight[a] - weight[cur] + weight[b] - weight[cj]
-                    if gain <= best_gain:
-                        continue
-                    if _clash(seg, a, b, buffer[i] + buffer[j] + margin):
-                        continue
-                    if not _clear_of_neighbours(seg, j, b, chosen, nbr_ptr, nbr_idx, buffer,
-                                                margin, i):
-                        continue
-                    best = b
-                    best_gain = gain
-                if best >= 0:
-                    _release(j, chosen, target, holder)
-                    _move(i, a, chosen, target, holder)
-                    _move(j, best, chosen, target, holder)
-                    changed = True
-    return sweeps
-
-
 @njit(cache=True, inline="always")
 def _release(i, chosen, target, holder):
     """Robot i lets go of its target (its pose is about to change)."""
@@ -163,18 +100,120 @@ def _move(i, a, chosen, target, holder):
 
 
 @njit(cache=True)
-def eject_kernel(seg, robot, target, weight, ptr, n_targets, nbr_ptr, nbr_idx, buffer, margin,
-                 chosen, allowed, max_sweeps):
-    """Ejection moves on ``chosen`` in place: a robot takes another of its poses (parking
-    included) clear of its neighbours, even a lighter one, then each neighbour in turn
-    takes its heaviest pose that is now free and clear; kept when the total weight grows,
-    undone otherwise. Catches what the one-for-one moves of :func:`improve_kernel` miss:
-    one robot's pose blocking two others. Returns the sweeps run."""
-    n = chosen.shape[0]
-    holder = np.full(max(n_targets, 1), -1, dtype=np.int64)
-    for i in range(n):
-        if target[chosen[i]] >= 0:
-            holder[target[chosen[i]]] = i
+def _improve_move(i, a, seg, target, weight, ptr, nbr_ptr, nbr_idx, buffer, margin, chosen,
+                  allowed, holder):
+    """One local-improvement move (module docstring): robot ``i`` takes its candidate ``a``
+    when it weighs more than its pose, moving at most one robot in the way to another
+    pose. Returns True when the move was made."""
+    cur = chosen[i]
+    if not allowed[a] or weight[a] <= weight[cur] or a == cur:
+        return False
+    t = target[a]
+    # the robots in the way of a: the holder of its target, and neighbours whose
+    # poses collide with it; at most one may be moved
+    hit = -1
+    n_hit = 0
+    if t >= 0 and holder[t] >= 0 and holder[t] != i:
+        hit = holder[t]
+        n_hit = 1
+    for q in range(nbr_ptr[i], nbr_ptr[i + 1]):
+        j = nbr_idx[q]
+        if j == hit:
+            continue
+        if _clash(seg, a, chosen[j], buffer[i] + buffer[j] + margin):
+            n_hit += 1
+            hit = j
+            if n_hit > 1:
+                break
+    if n_hit > 1:
+        return False
+    if n_hit == 0:
+        _move(i, a, chosen, target, holder)
+        return True
+    j = hit
+    cj = chosen[j]
+    best = -1
+    best_gain = 1e-12
+    for b in range(ptr[j], ptr[j + 1]):
+        if b == cj or not allowed[b]:
+            continue
+        tb = target[b]
+        if tb >= 0 and (tb == t or (holder[tb] >= 0 and holder[tb] != j and holder[tb] != i)):
+            continue
+        if tb >= 0 and holder[tb] == i and tb != target[cur]:
+            continue
+        gain = weight[a] - weight[cur] + weight[b] - weight[cj]
+        if gain <= best_gain:
+            continue
+        if _clash(seg, a, b, buffer[i] + buffer[j] + margin):
+            continue
+        if not _clear_of_neighbours(seg, j, b, chosen, nbr_ptr, nbr_idx, buffer, margin, i):
+            continue
+        best = b
+        best_gain = gain
+    if best < 0:
+        return False
+    _release(j, chosen, target, holder)
+    _move(i, a, chosen, target, holder)
+    _move(j, best, chosen, target, holder)
+    return True
+
+
+@njit(cache=True)
+def _eject_move(j, b, seg, target, weight, ptr, nbr_ptr, nbr_idx, buffer, margin, chosen,
+                allowed, holder, stack_r, stack_c):
+    """One ejection move (:func:`eject_kernel`): robot ``j`` takes its candidate ``b``, then
+    each neighbour its heaviest free and clear pose; undone unless the total weight grows.
+    ``stack_r``, ``stack_c``: scratch for the undo. Returns True when the move was kept."""
+    cj = chosen[j]
+    if b == cj or not allowed[b]:
+        return False
+    tb = target[b]
+    if tb >= 0 and holder[tb] >= 0 and holder[tb] != j:
+        return False
+    if not _clear_of_neighbours(seg, j, b, chosen, nbr_ptr, nbr_idx, buffer, margin, -1):
+        return False
+    depth = 0
+    stack_r[depth] = j
+    stack_c[depth] = cj
+    depth += 1
+    gain = weight[b] - weight[cj]
+    _move(j, b, chosen, target, holder)
+    for q in range(nbr_ptr[j], nbr_ptr[j + 1]):
+        i = nbr_idx[q]
+        ci = chosen[i]
+        best = -1
+        best_w = weight[ci]
+        for a in range(ptr[i], ptr[i + 1]):
+            if not allowed[a] or weight[a] <= best_w:
+                continue
+            ta = target[a]
+            if ta >= 0 and holder[ta] >= 0 and holder[ta] != i:
+                continue
+            if not _clear_of_neighbours(seg, i, a, chosen, nbr_ptr, nbr_idx, buffer, margin, -1):
+                continue
+            best = a
+            best_w = weight[a]
+        if best >= 0:
+            stack_r[depth] = i
+            stack_c[depth] = ci
+            depth += 1
+            gain += weight[best] - weight[ci]
+            _move(i, best, chosen, target, holder)
+    if gain > 1e-12:
+        return True
+    for k in range(depth - 1, -1, -1):
+        _move(stack_r[k], stack_c[k], chosen, target, holder)
+    return False
+
+
+@njit(cache=True)
+def _sweeps(eject, seg, target, weight, ptr, n_targets, nbr_ptr, nbr_idx, buffer, margin,
+            chosen, allowed, max_sweeps):
+    """Sweeps over every (robot, candidate) trying one kind of move (``eject``: ejection,
+    else local improvement) until a sweep changes nothing or ``max_sweeps``; returns the
+    sweeps run."""
+    holder = _holders(target, chosen, n_targets)
     stack_r = np.empty(nbr_idx.shape[0] + 1, dtype=np.int64)
     stack_c = np.empty(nbr_idx.shape[0] + 1, dtype=np.int64)
     sweeps = 0
@@ -182,51 +221,38 @@ def eject_kernel(seg, robot, target, weight, ptr, n_targets, nbr_ptr, nbr_idx, b
     while changed and sweeps < max_sweeps:
         changed = False
         sweeps += 1
-        for j in range(n):
-            for b in range(ptr[j], ptr[j + 1]):
-                cj = chosen[j]
-                if b == cj or not allowed[b]:
-                    continue
-                tb = target[b]
-                if tb >= 0 and holder[tb] >= 0 and holder[tb] != j:
-                    continue
-                if not _clear_of_neighbours(seg, j, b, chosen, nbr_ptr, nbr_idx, buffer, margin,
-                                            -1):
-                    continue
-                depth = 0
-                stack_r[depth] = j
-                stack_c[depth] = cj
-                depth += 1
-                gain = weight[b] - weight[cj]
-                _move(j, b, chosen, target, holder)
-                for q in range(nbr_ptr[j], nbr_ptr[j + 1]):
-                    i = nbr_idx[q]
-                    ci = chosen[i]
-                    best = -1
-                    best_w = weight[ci]
-                    for a in range(ptr[i], ptr[i + 1]):
-                        if not allowed[a] or weight[a] <= best_w:
-                            continue
-                        ta = target[a]
-                        if ta >= 0 and holder[ta] >= 0 and holder[ta] != i:
-                            continue
-                        if not _clear_of_neighbours(seg, i, a, chosen, nbr_ptr, nbr_idx, buffer,
-                                                    margin, -1):
-                            continue
-                        best = a
-                        best_w = weight[a]
-                    if best >= 0:
-                        stack_r[depth] = i
-                        stack_c[depth] = ci
-                        depth += 1
-                        gain += weight[best] - weight[ci]
-                        _move(i, best, chosen, target, holder)
-                if gain > 1e-12:
-                    changed = True
+        for r in range(chosen.shape[0]):
+            for c in range(ptr[r], ptr[r + 1]):
+                if eject:
+                    moved = _eject_move(r, c, seg, target, weight, ptr, nbr_ptr, nbr_idx,
+                                        buffer, margin, chosen, allowed, holder, stack_r,
+                                        stack_c)
                 else:
-                    for k in range(depth - 1, -1, -1):
-                        _move(stack_r[k], stack_c[k], chosen, target, holder)
+                    moved = _improve_move(r, c, seg, target, weight, ptr, nbr_ptr, nbr_idx,
+                                          buffer, margin, chosen, allowed, holder)
+                if moved:
+                    changed = True
     return sweeps
+
+
+@njit(cache=True)
+def improve_kernel(seg, robot, target, weight, ptr, n_targets, nbr_ptr, nbr_idx, buffer,
+                   margin, chosen, allowed, max_sweeps):
+    """Local improvement of ``chosen`` in place (module docstring); returns the sweeps run."""
+    return _sweeps(False, seg, target, weight, ptr, n_targets, nbr_ptr, nbr_idx, buffer, margin,
+                   chosen, allowed, max_sweeps)
+
+
+@njit(cache=True)
+def eject_kernel(seg, robot, target, weight, ptr, n_targets, nbr_ptr, nbr_idx, buffer, margin,
+                 chosen, allowed, max_sweeps):
+    """Ejection moves on ``chosen`` in place: a robot takes another of its poses (parking
+    included) clear of its neighbours, even a lighter one, then each neighbour in turn
+    takes its heaviest pose that is now free and clear; kept when the total weight grows,
+    undone otherwise. Catches what the one-for-one moves of :func:`improve_kernel` miss:
+    one robot's pose blocking two others. Returns the sweeps run."""
+    return _sweeps(True, seg, target, weight, ptr, n_targets, nbr_ptr, nbr_idx, buffer, margin,
+                   chosen, allowed, max_sweeps)
 
 
 def greedy_order(cands, n_targets: int, degree: np.ndarray | None = None) -> np.ndarray:

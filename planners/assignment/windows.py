@@ -32,6 +32,26 @@ def conflict_csr(a: np.ndarray, b: np.ndarray, n_cands: int) -> tuple[np.ndarray
 
 
 @njit(cache=True)
+def _local_pairs(cand, keep, conf_ptr, conf_idx, local, out):
+    """Conflict pairs ``(q, local[d])``, ``q < local[d]``, among the kept candidates of a
+    window; the k-th is written to ``out[k]`` while it has room ((0, 2) ``out``: count
+    only). Returns the number of pairs."""
+    count = 0
+    for q in range(cand.shape[0]):
+        if not keep[q]:
+            continue
+        c = cand[q]
+        for m in range(conf_ptr[c], conf_ptr[c + 1]):
+            d = conf_idx[m]
+            if local[d] > q:
+                if count < out.shape[0]:
+                    out[count, 0] = q
+                    out[count, 1] = local[d]
+                count += 1
+    return count
+
+
+@njit(cache=True)
 def _window_rows(cand, robot, target, in_win, chosen, holder, conf_ptr, conf_idx, local):
     """Candidates of a window that may be taken, and the conflict pairs among them.
 
@@ -55,27 +75,9 @@ def _window_rows(cand, robot, target, in_win, chosen, holder, conf_ptr, conf_idx
     for q in range(k):
         if keep[q]:
             local[cand[q]] = q
-    count = 0
-    for q in range(k):
-        if not keep[q]:
-            continue
-        c = cand[q]
-        for m in range(conf_ptr[c], conf_ptr[c + 1]):
-            d = conf_idx[m]
-            if local[d] > q:
-                count += 1
-    pairs = np.empty((count, 2), dtype=np.int64)
-    count = 0
-    for q in range(k):
-        if not keep[q]:
-            continue
-        c = cand[q]
-        for m in range(conf_ptr[c], conf_ptr[c + 1]):
-            d = conf_idx[m]
-            if local[d] > q:
-                pairs[count, 0] = q
-                pairs[count, 1] = local[d]
-                count += 1
+    pairs = np.empty((_local_pairs(cand, keep, conf_ptr, conf_idx, local,
+                                   np.empty((0, 2), dtype=np.int64)), 2), dtype=np.int64)
+    _local_pairs(cand, keep, conf_ptr, conf_idx, local, pairs)
     for q in range(k):
         local[cand[q]] = -1
     return keep, pairs

@@ -154,6 +154,27 @@ def barrier_weight(s, d, tiny, l2, dD2):
     return 2.0 * l2 * dD2 / (q * q)
 
 
+@njit(cache=True, inline="always")
+def barrier_push(P, i, la, r, s, d, D, l2, px, py, qx, qy, bx, by, ax, ay):
+    """Joint velocities (alpha, beta) of robot i's repulsion from one body (Eq. 2).
+
+    (px, py) is robot i's closest point (at r along its beta arm), (qx, qy) the body's, s
+    their distance, mm; the barrier runs from ``d`` (contact) to ``D`` (no force) and is
+    scaled by ``l2`` (:func:`barrier_weight`). The push is along q -> p; at contact (s ~ 0)
+    it points from (ax, ay) to robot i's base (bx, by) instead, with length ``d``.
+    """
+    w = barrier_weight(s, d, 1e-6 * d * d, l2, D * D - d * d)
+    vx = px - qx
+    vy = py - qy
+    if s < 1e-12:
+        vx = bx - ax
+        vy = by - ay
+        nv = max(math.sqrt(vx * vx + vy * vy), 1e-12)
+        vx *= d / nv
+        vy *= d / nv
+    return jacobian_transpose(P, i, la, r, w * vx, w * vy)
+
+
 @njit(cache=True)
 def start_violation(base, th, la, lb, s0, s1, segment, nbr_ptr, nbr_idx, fid_ptr, fid_idx,
                      fid_a, fid_b, ex, fex, d, d_f, movable_only_mask):

@@ -65,7 +65,8 @@ import math
 import numpy as np
 from numba import njit
 
-from rfp_twin.planners.fields.field import barrier_weight, obstacle_distance, jacobian_transpose, pair_distance, arm_poses
+from rfp_twin.planners.fields.field import (arm_poses, barrier_push, jacobian_transpose,
+                                            obstacle_distance, pair_distance)
 
 #: Halvings of a guarded step before it is cancelled.
 GUARD_HALVINGS = 4
@@ -262,40 +263,21 @@ def run_apf(base, th0, th_target, target_xy, movable, nbr_ptr, nbr_idx, nbr_coop
                 j = nbr_idx[kk]
                 s, r, px, py, qx, qy = pair_distance(P, i, j, segment, lb, s0, s1)
                 e = ex[i] + ex[j]
-                Dij = D + e
-                if s >= Dij:
+                if s >= D + e:
                     continue
-                dij = d + e
-                w = barrier_weight(s, dij, 1e-6 * dij * dij, l2, Dij * Dij - dij * dij)
-                vx = px - qx
-                vy = py - qy
-                if s < 1e-12:
-                    vx = base[i, 0] - base[j, 0]
-                    vy = base[i, 1] - base[j, 1]
-                    nv = math.sqrt(vx * vx + vy * vy)
-                    vx *= dij / nv
-                    vy *= dij / nv
-                ra, rb = jacobian_transpose(P, i, la[i], r, w * vx, w * vy)
+                ra, rb = barrier_push(P, i, la[i], r, s, d + e, D + e, l2, px, py, qx, qy,
+                                      base[i, 0], base[i, 1], base[j, 0], base[j, 1])
                 ua += ra
                 ub += rb
             for kk in range(fid_ptr[i], fid_ptr[i + 1]):
                 f = fid_idx[kk]
                 s, r, px, py, qx, qy = obstacle_distance(P, i, fid_a, fid_b, f, segment, lb, s0, s1)
                 e = ex[i] + fex[f]
-                Dif = D_f + e
-                if s >= Dif:
+                if s >= D_f + e:
                     continue
-                dif = d_f + e
-                w = barrier_weight(s, dif, 1e-6 * dif * dif, l2, Dif * Dif - dif * dif)
-                vx = px - qx
-                vy = py - qy
-                if s < 1e-12:   # on the obstacle: push away from it towards the base
-                    vx = base[i, 0] - qx
-                    vy = base[i, 1] - qy
-                    nv = max(math.sqrt(vx * vx + vy * vy), 1e-12)
-                    vx *= dif / nv
-                    vy *= dif / nv
-                ra, rb = jacobian_transpose(P, i, la[i], r, w * vx, w * vy)
+                # on the obstacle: pushed away from it towards the base
+                ra, rb = barrier_push(P, i, la[i], r, s, d_f + e, D_f + e, l2, px, py, qx, qy,
+                                      base[i, 0], base[i, 1], qx, qy)
                 ua += ra
                 ub += rb
             # alpha-axis rule: alpha moves the tip with gain r = |tip - base|; below

@@ -50,20 +50,27 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
                          rng: np.random.Generator, *,
                          offline: dict[int, tuple[float, float]] | None = None,
                          resolve: bool = True,
-                         progress: Callable[[int, int], None] | None = None) -> Plan:
-    """Plan the array from the folded state to ``targets`` (executed direction).
+                         progress: Callable[[int, int], None] | None = None,
+                         start: np.ndarray | None = None) -> Plan:
+    """Plan the array from the folded state (or ``start``) to ``targets`` (executed direction).
 
     geom : ArrayGeometry; targets : (n, 2) deg, one row per robot (rows of offline robots
     are ignored); rng : seeds each round's run and draws replacement targets; offline :
     {robot_id: (alpha, beta)}, robots that never move, at these angles; resolve : resolve
     deadlocks (True), or stop after the first run (False: stuck robots end DEADLOCKED);
-    progress : ``progress(round, n_stuck)`` after each round's run.
+    progress : ``progress(round, n_stuck)`` after each round's run; start : (n, 2) deg,
+    where the robots stand before the motion [default: every robot folded]: a
+    reconfiguration between two arbitrary clear configurations (the next pass of a
+    field planned from the poses of the last one). The planner then works between the
+    two sets of poses the way it works between the targets and the fold: reverse
+    planning runs from ``targets`` to ``start`` and plays the run backwards; deadlock
+    resolution is the same (a replaced robot gets a new target, never a new start).
 
-    Returns the Plan in the executed direction (step 0 folded, the last step the targets);
-    robots left deadlocked keep their path to where they stopped.
+    Returns the Plan in the executed direction (step 0 folded or ``start``, the last step
+    the targets); robots left deadlocked keep their path to where they stopped.
     """
     clock = time.perf_counter()
-    targets, fold, movable = _checked_inputs(geom, targets, offline)
+    targets, fold, movable = _checked_inputs(geom, targets, offline, start)
     original, replaced = targets.copy(), np.zeros(geom.n_robots, dtype=bool)
     md = array_max_displacement(geom, settings.step_deg)
     chain = resolution_chain(settings, rng, resolve)
@@ -101,13 +108,18 @@ def plan_reconfiguration(geom: ArrayGeometry, targets: np.ndarray, settings: Pla
 
 
 def _checked_inputs(geom: ArrayGeometry, targets: np.ndarray,
-                    offline: dict[int, tuple[float, float]] | None):
+                    offline: dict[int, tuple[float, float]] | None,
+                    start: np.ndarray | None = None):
     """(targets (n, 2) deg, fold (n, 2) deg, movable (n,) bool), checked: offline robots
-    stand at their angles, in the targets and the folded state alike."""
+    stand at their angles, in the targets and the folded state alike. ``fold`` is the
+    other end of the motion: the folded state, or ``start`` when given."""
     targets = np.array(targets, dtype=np.float64, copy=True)
     movable = apply_offline(geom, offline, targets)
     check_targets(geom, targets)
-    fold = np.tile(np.asarray(geom.spec.fold_deg, dtype=np.float64), (geom.n_robots, 1))
+    if start is None:
+        fold = np.tile(np.asarray(geom.spec.fold_deg, dtype=np.float64), (geom.n_robots, 1))
+    else:
+        fold = np.array(start, dtype=np.float64, copy=True).reshape(geom.n_robots, 2)
     fold[~movable] = targets[~movable]
     check_targets(geom, fold)
     return targets, fold, movable

@@ -31,9 +31,13 @@ class PlannerSettings:
                             "prioritized state-time planner on every robot; slow: minutes on "
                             "500 robots)", choices=ALGORITHMS)
     step_deg: float = option(0.1, "Angular step", unit="deg", lo=0.001, hi=10.0)
-    greed: float | None = option(None, "Markov / MDP2 greed [default: markov 0.9, mdp2 0.7]",
+    greed: float | None = option(None, "Markov / MDP2 greed [default: markov "
+                                 f"{DEFAULT_GREED_PHOBIA['markov'][0]}, mdp2 "
+                                 f"{DEFAULT_GREED_PHOBIA['mdp2'][0]}]",
                                  lo=0.0, hi=1.0)
-    phobia: float | None = option(None, "Markov / MDP2 phobia [default: markov 0.3, mdp2 0.6]",
+    phobia: float | None = option(None, "Markov / MDP2 phobia [default: markov "
+                                  f"{DEFAULT_GREED_PHOBIA['markov'][1]}, mdp2 "
+                                  f"{DEFAULT_GREED_PHOBIA['mdp2'][1]}]",
                                   lo=0.0, hi=1.0)
     tries: int = option(5, "mdp2: tries, each from the start after the most folded stuck "
                         "robot is nudged", lo=1)

@@ -71,3 +71,15 @@ def test_atomic_folder_replaces_whole_or_not_at_all(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["b.txt"]   # replaced whole
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no temp left
     assert oct(out.stat().st_mode & 0o777) == "0o755"
+
+
+def test_atomic_folder_sub_folders_stay_listable(tmp_path):
+    from rfp_twin.models.files import atomic_folder
+
+    out = tmp_path / "passes"
+    with atomic_folder(out) as tmp:
+        (tmp / "pass1").mkdir()
+        (tmp / "pass1" / "summary.json").write_text("{}")
+    assert oct((out / "pass1").stat().st_mode & 0o777) == "0o755"
+    assert oct((out / "pass1" / "summary.json").stat().st_mode & 0o777) == "0o644"
+    assert (out / "pass1" / "summary.json").read_text() == "{}"

@@ -13,11 +13,12 @@ from rfp_twin.models.robot import load_spec
 from tests.models.conftest import step_clean, with_fiducials
 
 
-@pytest.mark.parametrize("preset", ["sdss-v", "sdss-v-production", "desi"])
-def test_every_preset_model_compiles_and_steps_without_warnings(preset):
+@pytest.mark.parametrize("preset, rings", [("sdss-v", 2), ("sdss-v-production", 2), ("desi", 2),
+                                           ("pfs-cobra", 1), ("raft-6p2", 1)])
+def test_every_preset_model_compiles_and_steps_without_warnings(preset, rings):
     spec = load_spec(preset)
     with collect_mujoco_warnings() as messages:
-        twin = build_model(spec, Layout.hex_grid(2, spec.pitch_mm))
+        twin = build_model(spec, Layout.hex_grid(rings, spec.pitch_mm))
     assert messages == []
     d = twin.make_data()
     d.ctrl[twin.index.actuator[:, 0]] += 0.2        # move a little: contacts, limits, servos

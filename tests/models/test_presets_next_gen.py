@@ -120,18 +120,3 @@ def test_bad_arm_ratio_names_the_field(ratio):
         with_arm_ratio(load_spec("raft-6p2"), ratio)
     msg = str(info.value)
     assert "'arm_ratio'" in msg and "(0, inf)" in msg and "\n" not in msg
-
-
-@pytest.mark.parametrize("name", ["pfs-cobra", "raft-6p2"])
-def test_mujoco_model_compiles_and_steps_without_warnings(name):
-    from rfp_twin.models.layout import Layout
-    from rfp_twin.models.mjcf import build_model, collect_mujoco_warnings
-    from tests.models.conftest import step_clean
-
-    spec = load_spec(name)
-    with collect_mujoco_warnings() as messages:
-        twin = build_model(spec, Layout.hex_grid(1, spec.pitch_mm))
-    assert messages == []
-    d = twin.make_data()
-    d.ctrl[twin.index.actuator[:, 0]] += 0.2
-    step_clean(twin.model, d, 200)

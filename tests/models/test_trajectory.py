@@ -85,3 +85,19 @@ def test_malformed_json_is_named(tmp_path, text, msg):
     path.write_text(text)
     with pytest.raises(TrajectoryError, match=msg):
         Trajectory.from_json(path)
+
+
+def test_joined_trajectories_hold_the_joint_and_shift_the_second():
+    from rfp_twin.models.trajectory import join_trajectories
+
+    first = Trajectory.from_breakpoints([1, 2], [[0.0, 2.0], [0.0, 4.0]], [[0.0, 10.0], [5.0, 9.0]],
+                                        [[0.0, 1.0], [0.0, 4.0]], [[0.0, 0.0], [1.0, 1.0]])
+    second = Trajectory.from_breakpoints([1, 2], [[0.0, 1.0], [0.0, 3.0]], [[10.0, 20.0], [9.0, 0.0]],
+                                         [[0.0, 1.0], [0.0, 3.0]], [[0.0, 5.0], [1.0, 2.0]])
+    j = join_trajectories(first, second)
+    assert j.duration == pytest.approx(4.0 + 3.0)
+    s = j.sample(np.array([0.0, 2.0, 4.0, 5.0, 7.0]))
+    assert s[:, 0, 0].tolist() == [0.0, 10.0, 10.0, 20.0, 20.0]   # robot 1 waits at the joint
+    assert s[:, 1, 0].tolist() == [5.0, 7.0, 9.0, 6.0, 0.0]
+    with pytest.raises(TrajectoryError, match="allowed: the same angle"):
+        join_trajectories(second, first)

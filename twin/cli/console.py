@@ -63,6 +63,18 @@ def run_app(app: typer.Typer) -> None:
         sys.exit(EXIT_BAD_INPUT)
 
 
+def print_rows(title: str, rows) -> None:
+    """A two-column table (quantity, value) of ``rows`` [(str, str), ...] on stdout."""
+    from rich.table import Table
+
+    table = Table(title=title)
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    for row in rows:
+        table.add_row(*row)
+    console.print(table)
+
+
 def progress_bar(label: str, counter: str = "{task.percentage:>3.0f}%") -> Progress:
     """A transient progress bar on stderr: ``LABEL description [bar] COUNTER elapsed``."""
     return Progress(TextColumn(f"[bold]{label}[/] {{task.description}}"), BarColumn(),

@@ -18,6 +18,7 @@ from rich.table import Table
 from rfp_twin.models.errors import LayoutError
 from rfp_twin.twin.cli.console import command_line, console, one_line_errors, progress_bar
 from rfp_twin.twin.cli.layout_option import LAYOUT_HELP
+from rfp_twin.twin.cli.shared_options import PRESET_HELP
 
 #: Files written into the output folder.
 COVERAGE_JSON = "coverage.json"
@@ -26,7 +27,7 @@ COVERAGE_PNG = "coverage.png"
 
 @one_line_errors
 def coverage(
-    preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
+    preset: str = typer.Option("sdss-v", help=PRESET_HELP),
     layout: Optional[str] = typer.Option(None, help="raft:N | raft:R=MM (triangular rafts, "
                                          "Spec-S5) | " + LAYOUT_HELP),
     pitch: Optional[float] = typer.Option(None, help="Pitch of generated layouts (hex:N, "

@@ -12,9 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from rich.table import Table
 
-from rfp_twin.twin.cli.console import EXIT_COLLISION, console, fail, progress_bar
+from rfp_twin.twin.cli.console import EXIT_COLLISION, fail, print_rows, progress_bar
 
 
 def run_jaeger_flow(rc, seed: int, targets, out: Path, force: bool, *, algorithm: str,
@@ -40,22 +39,19 @@ def run_jaeger_flow(rc, seed: int, targets, out: Path, force: bool, *, algorithm
     summary["command"] = "rfp-twin " + " ".join(__import__("sys").argv[1:])
     write_run(out, spec=rc.spec, layout=rc.layout, plan=flow.plan, trajectory=flow.trajectory,
               summary=summary, check2d=verdict.to_dict(), overwrite=force)
-    t = Table(title=f"rfp-twin plan --flow jaeger -> {out}")
-    t.add_column("quantity")
-    t.add_column("value", justify="right")
-    t.add_row("robots (offline)", f"{rc.geom.n_robots} ({len(rc.offline)})")
-    t.add_row("planner / plans made", f"{algorithm} / {flow.attempts}")
-    t.add_row("targets lost (decollided + unlocked)",
-              f"{flow.n_lost} ({len(flow.decollided)} + {len(flow.unlocked)})")
-    t.add_row("unfold (production timing)", f"{flow.trajectory.duration:.2f} s + "
-                                            f"{flow.settings.path_delay_s:g} s delay")
+    rows = [("robots (offline)", f"{rc.geom.n_robots} ({len(rc.offline)})"),
+            ("planner / plans made", f"{algorithm} / {flow.attempts}"),
+            ("targets lost (decollided + unlocked)",
+             f"{flow.n_lost} ({len(flow.decollided)} + {len(flow.unlocked)})"),
+            ("unfold (production timing)", f"{flow.trajectory.duration:.2f} s + "
+                                           f"{flow.settings.path_delay_s:g} s delay")]
     for name, c in flow.checks.items():
         rule, buf = name.split("@")
-        t.add_row(f"2D check, {'our' if rule == 'twin' else rule} rule at {buf} mm",
-                  ("clear" if c.ok else f"{len(c.collisions)} collision(s)")
-                  + f", min clearance {c.min_clearance_mm:.4f} mm")
-    t.add_row("wall time", f"{flow.seconds['total']:.2f} s")
-    console.print(t)
+        rows.append((f"2D check, {'our' if rule == 'twin' else rule} rule at {buf} mm",
+                     ("clear" if c.ok else f"{len(c.collisions)} collision(s)")
+                     + f", min clearance {c.min_clearance_mm:.4f} mm"))
+    rows.append(("wall time", f"{flow.seconds['total']:.2f} s"))
+    print_rows(f"rfp-twin plan --flow jaeger -> {out}", rows)
     if not verdict.ok:
         raise fail(f"the production trajectory collides under production's own rule at "
                    f"{shrunk:g} mm ({len(verdict.collisions)} collision(s)); written to {out}",

@@ -11,11 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
-
-import typer
-
 from rfp_twin.models.errors import LayoutError, RfpError, TrajectoryError
+from rfp_twin.models.options import option
 
 #: Robot spec a trajectory file is read with unless ``--preset`` says otherwise.
 FILE_PRESET = "sdss-v-production"
@@ -37,28 +34,13 @@ ANGLES_HELP = ("Angles of a trajectory file: encoder (what the firmware is sent;
 @dataclass(frozen=True)
 class MotionOptions:
     """The options that say how to read a trajectory file (ignored for a run folder,
-    where giving one is an error)."""
+    where giving one is an error); commands take them through
+    :func:`rfp_twin.twin.cli.options.with_options`."""
 
-    layout: Optional[str] = None
-    calibration: Optional[Path] = None
-    preset: Optional[str] = None
-    angles: str = "encoder"
-
-
-def layout_option():
-    return typer.Option(None, "--layout", help=FILE_LAYOUT_HELP)
-
-
-def calibration_option():
-    return typer.Option(None, "--calibration", help=FILE_CALIBRATION_HELP)
-
-
-def preset_option():
-    return typer.Option(None, "--preset", help=FILE_PRESET_HELP)
-
-
-def angles_option():
-    return typer.Option("encoder", "--angles", help=ANGLES_HELP)
+    layout: str | None = option(None, FILE_LAYOUT_HELP)
+    calibration: Path | None = option(None, FILE_CALIBRATION_HELP)
+    preset: str | None = option(None, FILE_PRESET_HELP)
+    angles: str = option("encoder", ANGLES_HELP, choices=("encoder", "model"))
 
 
 def is_trajectory_file(source: Path) -> bool:

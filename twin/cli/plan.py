@@ -10,39 +10,15 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
-from rfp_twin.models.errors import LayoutError, TargetError
-from rfp_twin.twin.cli.layout_option import CALIBRATION_HELP, LAYOUT_HELP, chosen_layout
+from rfp_twin.models.errors import TargetError
 from rfp_twin.twin.cli.options import options_from, with_options
+from rfp_twin.twin.cli.shared_options import (ArrayOptions, CatalogueOptions, force_option,
+                                              out_option)
+from rfp_twin.twin.pass_options import PassOptions
 from rfp_twin.twin.pipeline import PlanOptions
-from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, console, fail,
-                                  one_line_errors, progress_bar)
-
-
-def parse_ids(text: str, option: str) -> tuple[int, ...]:
-    """``"1,2,3"`` -> (1, 2, 3); the error names the option."""
-    try:
-        return tuple(int(v) for v in text.split(",") if v.strip())
-    except ValueError:
-        raise LayoutError(f"{option} {text!r}; allowed: comma-separated integer ids") from None
-
-
-def parse_offline(items: list[str], fold_deg: tuple[float, float]) -> dict[int, tuple[float, float]]:
-    """``ID`` (parked folded) or ``ID:ALPHA:BETA`` -> {id: (alpha, beta) deg}."""
-    out: dict[int, tuple[float, float]] = {}
-    for item in items:
-        for part in filter(None, item.split(",")):
-            bits = part.split(":")
-            try:
-                if len(bits) not in (1, 3):
-                    raise ValueError
-                rid = int(bits[0])
-                ang = (float(bits[1]), float(bits[2])) if len(bits) == 3 else tuple(fold_deg)
-            except ValueError:
-                raise TargetError(f"--offline {part!r}; allowed: ID or ID:ALPHA:BETA") from None
-            out[rid] = ang
-    return out
+from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, fail, one_line_errors,
+                                       print_rows, progress_bar)
 
 
 #: CLI spellings of PlanOptions fields whose names carry their unit.
@@ -50,46 +26,29 @@ PLAN_RENAME = {"step_deg": "step", "budget_mm": "budget"}
 
 
 @one_line_errors
+@with_options(ArrayOptions)
+@with_options(CatalogueOptions, {"solver": "assign_solver"})
+@with_options(PassOptions)
 @with_options(PlanOptions, PLAN_RENAME)
 def plan(
-    preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
-    layout: Optional[str] = typer.Option(None, help=LAYOUT_HELP),
-    calibration: Optional[Path] = typer.Option(None, help=CALIBRATION_HELP),
-    fiducials: str = typer.Option("", help="Comma-separated position ids that are fiducials "
-                                  "(generated grids only)."),
-    buffer: Optional[float] = typer.Option(None, help="Collision buffer sigma_cb, mm [default: preset]."),
     seed: int = typer.Option(0, help="Seed of targets, Markov moves and replacements."),
     n_targets: Optional[int] = typer.Option(None, help="Probe-arm presets (miradas-probe): "
                                             "this many random targets drawn with --seed "
                                             "[default: the typical scenario, 12 arms]."),
-    offline: list[str] = typer.Option([], help="Offline robot: ID (parked folded) or ID:ALPHA:BETA; "
-                                      "repeat or comma-separate."),
     targets: Optional[Path] = typer.Option(None, help="Targets CSV (robot_id + alpha_deg,beta_deg or "
                                            "x_mm,y_mm; robots left out are parked at the "
-                                           "fold) [default: seeded random]."),
+                                           "fold; probe arms: arm + theta1_deg,theta2_deg or "
+                                           "x_mm,y_mm) [default: seeded random]."),
     catalogue: Optional[str] = typer.Option(None, help="Plan a target catalogue instead: assign "
                                             "it (collision-aware, rfp-twin assign), plan, and "
                                             "assign again without the targets the plan did "
                                             "not keep, until it keeps them all. A CSV/Parquet "
                                             "file or mock:uniform|clustered:DENSITY[/deg2|"
-                                            "/patrol][,...] (see rfp-twin assign --help)."),
-    telescope: str = typer.Option("auto", help="--catalogue: plate scale and field (auto | apo "
-                                  "| lco | none)."),
-    field_centre: Optional[str] = typer.Option(None, help="--catalogue: RA,DEC of the field "
-                                               "centre, deg (ra_deg,dec_deg catalogues)."),
-    assign_solver: str = typer.Option("auto", help="--catalogue: auto | highs | cpsat | "
-                                      "greedy."),
-    arms: str = typer.Option("right", help="--catalogue: arm solutions assigned: right | both "
-                             "| left."),
+                                            "/patrol|/robot][,...] (see rfp-twin assign --help)."),
     assign_rounds: int = typer.Option(5, help="--catalogue: assign -> plan rounds at most, "
                                       ">= 1."),
-    sky_quota: int = typer.Option(0, help="--catalogue: minimum sky fibers per region."),
-    standard_quota: int = typer.Option(0, help="--catalogue: minimum standard fibers per "
-                                       "region."),
-    sectors: int = typer.Option(1, help="--catalogue: quota regions, equal angular sectors "
-                                "about the array's centre."),
-    out: Path = typer.Option(Path("out/plan"), help="Output folder (must not exist unless --force)."),
-    force: bool = typer.Option(False, help="Replace an existing output folder."),
+    out: Path = out_option(Path("out/plan")),
+    force: bool = force_option(),
     flow: str = typer.Option("twin", help="twin (plan, resolve deadlocks, post-process: ours) | "
                              "jaeger (SDSS-V's controller: decollide, plan without resolution, "
                              "up to 5 retries that move a deadlocked robot's target, production "
@@ -103,43 +62,39 @@ def plan(
     --max-points per axis and verified again at buffer - budget."""
     t_import = time.perf_counter()
     from rfp_twin.models.kinds import ALPHA_BETA
-    from rfp_twin.models.robot import load_spec, preset_kind
-    from rfp_twin.twin.pipeline import Reconfiguration
+    from rfp_twin.models.robot import preset_kind
     from rfp_twin.twin.run_dir import check_output_folder
 
     check_output_folder(out, force)
-    if preset_kind(preset) != ALPHA_BETA:             # probe arms: their own planner
+    array = options_from(ArrayOptions, option_values)
+    if preset_kind(array.preset) != ALPHA_BETA:       # probe arms: their own planner
         from rfp_twin.twin.cli.probe import plan_probe_cli
 
-        plan_probe_cli(preset, layout, option_values["algorithm"], seed, n_targets, out, force)
+        plan_probe_cli(array.preset, array.layout, option_values["algorithm"], seed, n_targets,
+                       out, force, targets)
         return
 
     t_start = time.perf_counter()
     options = options_from(PlanOptions, option_values, PLAN_RENAME)
     algorithm, step = options.algorithm, options.step_deg
-    spec = load_spec(preset)
-    layout = chosen_layout(layout, calibration, spec)
-    rc = Reconfiguration.from_names(spec, layout, buffer_mm=buffer,
-                                    fiducial_ids=parse_ids(fiducials, "--fiducials"),
-                                    options=options, offline=parse_offline(offline, spec.fold_deg))
+    rc, layout, _ = array.reconfiguration(options)
     if catalogue is not None and targets is not None:
         raise TargetError(f"--targets {str(targets)!r} and --catalogue {catalogue!r}; allowed: "
                           "one of them")
     tg = rc.read_targets(targets) if targets is not None else None
     if assign_rounds < 1:
         raise TargetError(f"--assign-rounds {assign_rounds}; allowed: >= 1")
+    pass_options = options_from(PassOptions, option_values)
+    passes = pass_options.passes
+    if passes != 1:
+        if catalogue is None:
+            raise TargetError(f"--passes {passes} without --catalogue; allowed: --passes with "
+                              "a catalogue")
     cat = None
     if catalogue is not None:
-        from rfp_twin.planners.assignment import AssignSettings, Quotas
-        from rfp_twin.twin.catalogue_source import load_catalogue, parse_centre, telescope_for
-        from rfp_twin.twin.cli.assign import parse_arms
-
-        assign_settings = AssignSettings(solver=assign_solver, arms=parse_arms(arms),
-                                         quotas=Quotas(sky=sky_quota, standard=standard_quota,
-                                                       sectors=sectors))
-        cat = load_catalogue(catalogue, rc.geom, telescope=telescope_for(telescope, layout,
-                                                                          spec.name),
-                             field_centre=parse_centre(field_centre), seed=seed)
+        assigning = options_from(CatalogueOptions, option_values, {"solver": "assign_solver"})
+        assign_settings = assigning.settings()
+        cat, _ = assigning.load(catalogue, rc.geom, layout, rc.spec.name, seed)
         if flow != "twin":
             raise TargetError(f"--catalogue with --flow {flow!r}; allowed: --flow twin")
     if flow not in ("twin", "jaeger"):
@@ -151,6 +106,12 @@ def plan(
         return run_jaeger_flow(rc, seed, tg, out, force, algorithm=algorithm, greed=chosen.greed,
                                phobia=chosen.phobia, step=step)
     t_setup = time.perf_counter()
+    if passes != 1:
+        from rfp_twin.twin.cli.passes import run_passes_cli
+
+        return run_passes_cli(rc, cat, assign_settings, passes, seed=seed,
+                              max_rounds=assign_rounds, out=out, force=force, layout=layout,
+                              direct_stuck=pass_options.direct_stuck)
     n, rounds = rc.geom.n_robots, options.max_rounds + 1
     with progress_bar("planning", "{task.completed}/{task.total}") as progress:
         task = progress.add_task(f"{n} robots, {algorithm}", total=rounds if options.stepwise else None)
@@ -219,9 +180,6 @@ def print_summary(summary: dict, out: Path) -> None:
     """The run's figures as a table on stdout."""
     m = summary["metrics"]
     c = summary["check2d"]
-    t = Table(title=f"rfp-twin plan -> {out}", show_header=True)
-    t.add_column("quantity")
-    t.add_column("value", justify="right")
     rows = [
         ("robots (offline)", f"{summary['n_robots']} ({m['n_offline']})"),
         (("fiducials / guide cameras", f"{summary['n_fiducials'] - summary['n_gfa']} / "
@@ -286,6 +244,4 @@ def print_summary(summary: dict, out: Path) -> None:
             *([("science completeness", f"{100 * a['science_completeness']:.1f} %")]
               if a.get("science_completeness") is not None else []),
         ]
-    for k, v in rows:
-        t.add_row(k, v)
-    console.print(t)
+    print_rows(f"rfp-twin plan -> {out}", rows)

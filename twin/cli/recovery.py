@@ -9,23 +9,66 @@ the fold (unwind; the folder is written), 4 a collision in the motion (nothing w
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
-from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, console, fail,
-                                       one_line_errors, progress_bar)
-from rfp_twin.twin.cli.layout_option import CALIBRATION_HELP, LAYOUT_HELP, chosen_layout
+from rfp_twin.models.options import option, same_option
+from rfp_twin.planners.plan import PlannerSettings
+from rfp_twin.planners.plan.settings import DEFAULT_GREED_PHOBIA
+from rfp_twin.twin.cli.console import (EXIT_COLLISION, EXIT_INCOMPLETE, fail, one_line_errors,
+                                       print_rows, progress_bar)
+from rfp_twin.twin.cli.layout_option import chosen_layout
+from rfp_twin.twin.cli.options import options_from, with_options
+from rfp_twin.twin.cli.shared_options import (ArrayOptions, force_option, out_option,
+                                              parse_ids)
 
 POSES_HELP = ("Run folder (its trajectory's end) or CSV of current angles "
               "(robot_id,alpha_deg,beta_deg).")
-OFFLINE_HELP = "Offline robot ids (comma-separated or repeated): they stay where they stand."
+RUN_OUT_HELP = "Output run folder."
+MARKOV_GREED, MARKOV_PHOBIA = DEFAULT_GREED_PHOBIA["markov"]
+#: CLI spellings of fields whose names carry their unit.
+RENAME = {"step_deg": "step"}
 
 
-def _array(poses: Path, preset: Optional[str], layout: Optional[str],
-           calibration: Optional[Path], buffer: Optional[float], encoder: bool):
+@dataclass(frozen=True)
+class RecoveryInputs:
+    """Where the robots stand and how they may move: the options ``unwind`` and ``explode``
+    share."""
+
+    preset: str | None = option(None, "Robot preset or TOML [default: the run's, else "
+                                "sdss-v-production]")
+    layout: str | None = same_option(ArrayOptions, "layout")
+    calibration: Path | None = same_option(ArrayOptions, "calibration")
+    buffer: float | None = same_option(ArrayOptions, "buffer")
+    encoder: bool = option(False, "The CSV holds encoder angles")
+    offline: tuple[str, ...] = option((), "Offline robot ids (comma-separated or repeated): "
+                                      "they stay where they stand")
+    step_deg: float = same_option(PlannerSettings, "step_deg")
+
+    def offline_ids(self) -> list[int]:
+        return [i for item in self.offline for i in parse_ids(item, "--offline")]
+
+
+@dataclass(frozen=True)
+class UnwindOptions:
+    """How ``unwind`` plans: the stepwise planner's options it takes (declared by
+    PlannerSettings) and whether it resolves deadlocks."""
+
+    algorithm: str = same_option(PlannerSettings, "algorithm", choices=("greedy", "markov"),
+                                 help="greedy | markov (stepwise planner)")
+    resolve: bool = option(True, "Resolve deadlocks as every plan does (the poses kept as "
+                           "targets); --no-resolve stops at the first deadlock, as SDSS-V's "
+                           "controller unwinds")
+    greed: float = same_option(PlannerSettings, "greed", default=MARKOV_GREED, help="Markov greed")
+    phobia: float = same_option(PlannerSettings, "phobia", default=MARKOV_PHOBIA,
+                                help="Markov phobia")
+    seed: int = option(0, "Seed of the Markov moves")
+
+
+def _array(poses: Path, inputs: RecoveryInputs):
     """``(ArrayGeometry, poses (n, 2) model deg)`` from a run folder or a CSV."""
     from rfp_twin.models.array import ArrayGeometry
     from rfp_twin.models.errors import TargetError
@@ -33,8 +76,9 @@ def _array(poses: Path, preset: Optional[str], layout: Optional[str],
     from rfp_twin.models.robot import load_spec
     from rfp_twin.twin.recovery import poses_from_csv, poses_from_run
 
+    preset, layout, calibration = inputs.preset, inputs.layout, inputs.calibration
     if poses.is_dir():
-        if layout is not None or calibration is not None or encoder:
+        if layout is not None or calibration is not None or inputs.encoder:
             raise TargetError(f"{poses}: a run folder carries its own layout and model angles; "
                               "allowed: --layout, --calibration and --encoder with a CSV only")
         spec, lay, angles = poses_from_run(poses)
@@ -44,25 +88,16 @@ def _array(poses: Path, preset: Optional[str], layout: Optional[str],
         spec = load_spec(preset or "sdss-v-production")
         lay = layout_by_name(chosen_layout(layout, calibration, spec), spec.pitch_mm)
         angles = None
-    if buffer is not None:
-        spec = spec.with_overrides(buffer_mm=buffer)
+    if inputs.buffer is not None:
+        spec = spec.with_overrides(buffer_mm=inputs.buffer)
     geom = ArrayGeometry(spec, lay, spec.buffer_mm)
     if angles is None:
-        angles = poses_from_csv(poses, geom, encoder=encoder)
+        angles = poses_from_csv(poses, geom, encoder=inputs.encoder)
     return geom, angles
-
-
-def _offline_ids(items: list[str]) -> list[int]:
-    from rfp_twin.twin.cli.plan import parse_ids
-
-    return [i for item in items for i in parse_ids(item, "--offline")]
 
 
 def _report(title: str, outcome, out: Path) -> None:
     m = outcome.plan.metrics
-    t = Table(title=f"{title} -> {out}")
-    t.add_column("quantity")
-    t.add_column("value", justify="right")
     rows = [("robots (offline)", f"{outcome.geom.n_robots} "
                                  f"({int((outcome.plan.status == 'offline').sum())})"),
             ("buffer", f"{outcome.geom.buffer_mm:g} mm"),
@@ -78,46 +113,37 @@ def _report(title: str, outcome, out: Path) -> None:
                                                f" / {outcome.trajectory.duration:.2f} s")]
     rows += [("2D check", f"min clearance {outcome.check.min_clearance_mm:.4f} mm"),
              ("wall time", f"{outcome.seconds:.2f} s")]
-    for r in rows:
-        t.add_row(*r)
-    console.print(t)
+    print_rows(f"{title} -> {out}", rows)
 
 
 @one_line_errors
+@with_options(RecoveryInputs, RENAME)
+@with_options(UnwindOptions)
 def unwind(
     poses: Path = typer.Argument(..., help=POSES_HELP),
-    preset: Optional[str] = typer.Option(None, help="Robot preset or TOML [default: the run's, "
-                                         "else sdss-v-production]."),
-    layout: Optional[str] = typer.Option(None, help=LAYOUT_HELP),
-    calibration: Optional[Path] = typer.Option(None, help=CALIBRATION_HELP),
-    buffer: Optional[float] = typer.Option(None, help="Collision buffer, mm [default: preset]."),
-    encoder: bool = typer.Option(False, help="The CSV holds encoder angles."),
-    offline: list[str] = typer.Option([], help=OFFLINE_HELP),
-    algorithm: str = typer.Option("greedy", help="greedy | markov (stepwise planner)."),
-    resolve: bool = typer.Option(True, help="Resolve deadlocks as every plan does (the poses "
-                                 "kept as targets); --no-resolve stops at the first deadlock, "
-                                 "as SDSS-V's controller unwinds."),
-    greed: float = typer.Option(0.9, help="Markov greed, [0, 1]."),
-    phobia: float = typer.Option(0.3, help="Markov phobia, [0, 1]."),
-    seed: int = typer.Option(0, help="Seed of the Markov moves."),
-    step: float = typer.Option(0.1, help="Angular step, deg."),
-    out: Path = typer.Option(Path("out/unwind"), help="Output run folder."),
-    force: bool = typer.Option(False, help="Replace an existing output folder."),
+    out: Path = out_option(Path("out/unwind"), RUN_OUT_HELP),
+    force: bool = force_option(),
+    **option_values,
 ) -> None:
     """Fold every robot from where it stands; robots left deadlocked stop short (exit 3)."""
+    from dataclasses import asdict
+
     from rfp_twin.models.errors import RfpError
+    from rfp_twin.models.options import option_info
     from rfp_twin.twin.recovery import movable_mask, unwind as run_unwind
     from rfp_twin.twin.run_dir import check_output_folder
 
     check_output_folder(out, force)
-    if algorithm not in ("greedy", "markov"):
-        raise RfpError(f"--algorithm {algorithm!r}; allowed: greedy, markov")
-    geom, angles = _array(poses, preset, layout, calibration, buffer, encoder)
+    inputs = options_from(RecoveryInputs, option_values, RENAME)
+    how = options_from(UnwindOptions, option_values)
+    allowed = option_info(UnwindOptions, "algorithm").choices
+    if how.algorithm not in allowed:
+        raise RfpError(f"--algorithm {how.algorithm!r}; allowed: {', '.join(allowed)}")
+    geom, angles = _array(poses, inputs)
     with progress_bar("unwind") as progress:
         progress.add_task(f"{geom.n_robots} robots", total=None)
-        outcome = run_unwind(geom, angles, movable_mask(geom, _offline_ids(offline)),
-                             step_deg=step, algorithm=algorithm, greed=greed, phobia=phobia,
-                             resolve=resolve, seed=seed)
+        outcome = run_unwind(geom, angles, movable_mask(geom, inputs.offline_ids()),
+                             step_deg=inputs.step_deg, **asdict(how))
     if outcome.new_collisions or outcome.start_collisions:
         raise fail(f"the unwind fails the 2D check: {len(outcome.check.collisions)} "
                    "collision(s); nothing written", EXIT_COLLISION)
@@ -129,20 +155,14 @@ def unwind(
 
 
 @one_line_errors
+@with_options(RecoveryInputs, RENAME)
 def explode(
     poses: Path = typer.Argument(..., help=POSES_HELP),
-    preset: Optional[str] = typer.Option(None, help="Robot preset or TOML [default: the run's, "
-                                         "else sdss-v-production]."),
-    layout: Optional[str] = typer.Option(None, help=LAYOUT_HELP),
-    calibration: Optional[Path] = typer.Option(None, help=CALIBRATION_HELP),
-    buffer: Optional[float] = typer.Option(None, help="Collision buffer, mm [default: preset]."),
-    encoder: bool = typer.Option(False, help="The CSV holds encoder angles."),
-    offline: list[str] = typer.Option([], help=OFFLINE_HELP),
     degrees: float = typer.Option(20.0, help="Travel of the explosion, deg (> 0)."),
     robot: Optional[int] = typer.Option(None, help="Explode this robot alone [default: all]."),
-    step: float = typer.Option(0.1, help="Angular step, deg."),
-    out: Path = typer.Option(Path("out/explode"), help="Output run folder."),
-    force: bool = typer.Option(False, help="Replace an existing output folder."),
+    out: Path = out_option(Path("out/explode"), RUN_OUT_HELP),
+    force: bool = force_option(),
+    **option_values,
 ) -> None:
     """Move robots apart: each steps to increase its smallest clearance."""
     from rfp_twin.twin.recovery import explode as run_explode
@@ -150,11 +170,12 @@ def explode(
     from rfp_twin.twin.run_dir import check_output_folder
 
     check_output_folder(out, force)
-    geom, angles = _array(poses, preset, layout, calibration, buffer, encoder)
+    inputs = options_from(RecoveryInputs, option_values, RENAME)
+    geom, angles = _array(poses, inputs)
     with progress_bar("explode") as progress:
         progress.add_task(f"{geom.n_robots} robots, {degrees:g} deg", total=None)
-        outcome = run_explode(geom, angles, movable_mask(geom, _offline_ids(offline)),
-                              degrees=degrees, step_deg=step, robot_id=robot)
+        outcome = run_explode(geom, angles, movable_mask(geom, inputs.offline_ids()),
+                              degrees=degrees, step_deg=inputs.step_deg, robot_id=robot)
     if outcome.new_collisions:
         c = outcome.new_collisions[0]
         raise fail(f"the explosion brings robot {c.robot_a} and {c.kind} {c.other} to "

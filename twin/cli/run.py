@@ -2,8 +2,9 @@
 
 Each command reads a run folder written by ``rfp-twin plan``, or a jaeger / kaiju trajectory
 file with ``--layout`` / ``--calibration`` (:func:`rfp_twin.twin.cli.motion_option.load_motion`),
-and builds the MuJoCo model of its spec and layout; heavy imports (mujoco, rerun) happen
-inside the commands so that ``rfp-twin --help`` stays fast.
+and builds the MuJoCo model of its spec and layout; a probe-arm run folder (MIRADAS) goes
+to :mod:`rfp_twin.twin.cli.probe` (the MuJoCo bench, its video, its recording). Heavy
+imports (mujoco, rerun) happen inside the commands so that ``rfp-twin --help`` stays fast.
 """
 from __future__ import annotations
 
@@ -16,14 +17,16 @@ from rfp_twin.models.errors import RfpError
 from rfp_twin.twin.cli.layout_option import CALIBRATION_HELP, LAYOUT_HELP, chosen_layout
 from rfp_twin.twin.cli.console import (EXIT_COLLISION, console, fail, one_line_errors,
                                   progress_bar)
-from rfp_twin.twin.cli.motion_option import (SOURCE_HELP, MotionOptions, angles_option,
-                                             calibration_option, is_trajectory_file, layout_option,
-                                             load_motion, preset_option)
-from rfp_twin.twin.cli.plan import parse_ids
+from rfp_twin.twin.cli.motion_option import (SOURCE_HELP, MotionOptions, is_trajectory_file,
+                                             load_motion)
+from rfp_twin.twin.cli.options import options_from, with_options
+from rfp_twin.twin.cli.shared_options import PRESET_HELP, parse_ids
 
 model_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None, help="The MuJoCo model of an array.")
 
 #: Fault options: (option, fault class name in rfp_twin.twin.sim, number of fields, form).
+FOLD_HELP = "Play targets -> fold instead of fold -> targets."
+TIMESTEP_HELP = "MuJoCo timestep, s."
 TILE_HELP = ("Simulate in tiles of at most this many robots (0: one MuJoCo model) [default: "
              "tiles of 512 above 2,000 robots].")
 _FAULTS = (("--stuck", "Stuck", 2, "ID:TIME_S"), ("--slow", "Slow", 2, "ID:FACTOR"),
@@ -81,15 +84,40 @@ def simulate_with_progress(twin, traj, faults=(), record: bool = False):
                        callback=lambda t, m, d: progress.update(task, completed=t))
 
 
+def _probe_run(run: Path, motion_values: dict, **alpha_beta_only) -> bool:
+    """Is ``run`` a probe-arm run folder (MIRADAS)? Options that only apply to alpha/beta
+    runs and trajectory files, when given with one, raise a one-line error."""
+    from rfp_twin.twin.probe_files import is_probe_run
+
+    if not is_probe_run(run):
+        return False
+    given = {f"--{k}": motion_values.get(k) for k in ("layout", "calibration", "preset")}
+    given.update({f"--{k.replace('_', '-')}": v for k, v in alpha_beta_only.items()})
+    used = [k for k, v in given.items() if v not in (None, False, [], ())]
+    if used:
+        raise RfpError(f"{run}: {used[0]} does not apply to a probe-arm run; allowed: the run "
+                       "folder alone (it holds its own preset)")
+    return True
+
+
+def replay(run: Path, motion: MotionOptions, fold: bool, tile_robots: int | None):
+    """``(twin, trajectory, recorded simulation report)``: the run folder or trajectory file
+    ``run`` (played targets -> fold with ``fold``) simulated in its MuJoCo twin, poses
+    recorded for ``render`` and ``record``."""
+    spec, lay, traj, _ = load_motion(run, motion, to_fold=fold)
+    twin = build_with_progress(spec, lay, tile_robots=tile_robots)
+    return twin, traj, simulate_with_progress(twin, traj, record=True)
+
+
 @model_app.command("export")
 @one_line_errors
 def model_export(
     out: Path = typer.Option(..., help="Folder for rfp-twin.xml and meshes/."),
-    preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
+    preset: str = typer.Option("sdss-v", help=PRESET_HELP),
     layout: Optional[str] = typer.Option(None, help=LAYOUT_HELP),
     calibration: Optional[Path] = typer.Option(None, help=CALIBRATION_HELP),
     fiducials: str = typer.Option("", help="Comma-separated fiducial ids (generated grids)."),
-    timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
+    timestep: float = typer.Option(0.004, help=TIMESTEP_HELP),
 ) -> None:
     """Write the MuJoCo model (MJCF + STL meshes); MuJoCo's own viewer opens it."""
     from rfp_twin.models.mjcf import ModelOptions, export_model
@@ -117,23 +145,26 @@ def model_export(
 
 
 @one_line_errors
+@with_options(MotionOptions)
 def simulate(
     run: Path = typer.Argument(..., help=SOURCE_HELP),
     stuck: list[str] = typer.Option([], help="Fault: robot stuck from a time, ID:TIME_S."),
     slow: list[str] = typer.Option([], help="Fault: robot running slow, ID:FACTOR."),
     encoder_offset: list[str] = typer.Option([], help="Fault: encoder offset, ID:ALPHA_DEG:BETA_DEG."),
-    timestep: float = typer.Option(0.004, help="MuJoCo timestep, s."),
+    timestep: float = typer.Option(0.004, help=TIMESTEP_HELP),
     tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
-    layout: Optional[str] = layout_option(),
-    calibration: Optional[Path] = calibration_option(),
-    preset: Optional[str] = preset_option(),
-    angles: str = angles_option(),
+    **motion_values,
 ) -> None:
     """Run the plan (or a trajectory file) in the MuJoCo twin; writes RUN/sim.json (or
     FILE.sim.json beside a trajectory file); exit 4 on any robot contact."""
     from rfp_twin.models.mjcf import ModelOptions
 
-    spec, lay, traj, _ = load_motion(run, MotionOptions(layout, calibration, preset, angles))
+    if _probe_run(run, motion_values, stuck=stuck, slow=slow, encoder_offset=encoder_offset,
+                  tile_robots=tile_robots):
+        from rfp_twin.twin.cli.probe import simulate_probe_cli
+
+        return simulate_probe_cli(run)
+    spec, lay, traj, _ = load_motion(run, options_from(MotionOptions, motion_values))
     faults = parse_faults(stuck, slow, encoder_offset)
     twin = build_with_progress(spec, lay, ModelOptions(timestep_s=timestep), tile_robots)
     report = simulate_with_progress(twin, traj, faults)
@@ -146,6 +177,7 @@ def simulate(
 
 
 @one_line_errors
+@with_options(MotionOptions)
 def render(
     run: Path = typer.Argument(..., help=SOURCE_HELP),
     out: Path = typer.Option(Path("fold.mp4"), help="MP4 file to write."),
@@ -156,24 +188,24 @@ def render(
     height: int = typer.Option(720, help="Frame height, px."),
     fps: float = typer.Option(30.0, help="Frames per second of the video."),
     speedup: float = typer.Option(1.0, help="Simulated seconds per video second."),
-    fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
+    fold: bool = typer.Option(False, help=FOLD_HELP),
     full_quality: bool = typer.Option(False, help="Shadows, reflections, MSAA (slow on a CPU)."),
     tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
-    layout: Optional[str] = layout_option(),
-    calibration: Optional[Path] = calibration_option(),
-    preset: Optional[str] = preset_option(),
-    angles: str = angles_option(),
+    **motion_values,
 ) -> None:
     """Simulate a run and render it offscreen to MP4 (robots coloured by state)."""
     from rfp_twin.twin.render import RenderSettings, render_run  # first: picks MUJOCO_GL before mujoco
 
-    spec, lay, traj, _ = load_motion(run, MotionOptions(layout, calibration, preset, angles),
-                                     to_fold=fold)
+    if _probe_run(run, motion_values, camera=camera, robot=robot, fold=fold,
+                  tile_robots=tile_robots):
+        from rfp_twin.twin.cli.probe import render_probe_cli
+
+        return render_probe_cli(run, out, width, height, fps, speedup)
     settings = RenderSettings(width=width, height=height, fps=fps, speedup=speedup,
                               camera=camera or ("closeup" if robot is not None else "top"),
                               robot_id=robot, lean=not full_quality)
-    twin = build_with_progress(spec, lay, tile_robots=tile_robots)
-    sim_report = simulate_with_progress(twin, traj, record=True)
+    twin, traj, sim_report = replay(run, options_from(MotionOptions, motion_values), fold,
+                                    tile_robots)
     with progress_bar("rendering", "{task.completed}/{task.total} frames") as progress:
         task = progress.add_task("", total=None)
         report = render_run(twin, traj, out, settings, sim_report=sim_report,
@@ -183,27 +215,27 @@ def render(
 
 
 @one_line_errors
+@with_options(MotionOptions)
 def record(
     run: Path = typer.Argument(..., help=SOURCE_HELP),
     out: Path = typer.Option(Path("run.rrd"), help=".rrd file to write."),
-    fold: bool = typer.Option(False, help="Play targets -> fold instead of fold -> targets."),
+    fold: bool = typer.Option(False, help=FOLD_HELP),
     dt: Optional[float] = typer.Option(None, help="Seconds between logged poses [default 0.02]."),
     tile_robots: Optional[int] = typer.Option(None, help=TILE_HELP),
-    layout: Optional[str] = layout_option(),
-    calibration: Optional[Path] = calibration_option(),
-    preset: Optional[str] = preset_option(),
-    angles: str = angles_option(),
+    **motion_values,
 ) -> None:
     """Simulate a run and write a rerun recording: arm poses, fiber traces, contacts."""
     from rfp_twin.twin.record import RecordSettings, record_run
 
-    spec, lay, traj, _ = load_motion(run, MotionOptions(layout, calibration, preset, angles),
-                                     to_fold=fold)
+    if _probe_run(run, motion_values, fold=fold, tile_robots=tile_robots):
+        from rfp_twin.twin.cli.probe import record_probe_cli
+
+        return record_probe_cli(run, out, dt)
     settings = RecordSettings(dt_s=dt)
-    twin = build_with_progress(spec, lay, tile_robots=tile_robots)
-    sim_report = simulate_with_progress(twin, traj, record=True)
+    twin, traj, sim_report = replay(run, options_from(MotionOptions, motion_values), fold,
+                                    tile_robots)
     with progress_bar("recording", "{task.completed}/{task.total} robots") as progress:
-        task = progress.add_task("", total=lay.n_robots)
+        task = progress.add_task("", total=twin.layout.n_robots)
         path = record_run(twin, traj, out, sim_report=sim_report, settings=settings,
                           progress=lambda done, total: progress.update(task, completed=done))
     console.print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB); open it with `rerun {path}`")

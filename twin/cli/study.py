@@ -28,6 +28,7 @@ from rfp_twin.twin.cores import usable_cores
 #: Trend checks printed one per line; more are summed up in one line.
 MAX_TRENDS_SHOWN = 8
 
+STUDY_DIR_HELP = "Study folder written by `rfp-twin study run`."
 study_app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
                         pretty_exceptions_enable=False,
                         help="Design studies: thousands of simulated reconfigurations on Dask, "
@@ -124,7 +125,7 @@ def _report(study_dir: Path, out: Optional[Path], all_points: bool) -> None:
 @study_app.command("report")
 @one_line_errors
 def report(
-    study_dir: Path = typer.Argument(..., help="Study folder written by `rfp-twin study run`."),
+    study_dir: Path = typer.Argument(..., help=STUDY_DIR_HELP),
     out: Optional[Path] = typer.Option(None, help="Report folder (default: DIR/report)."),
     all_points: bool = typer.Option(False, "--all-points", help="Include rows of grid points "
                                     "no longer in the folder's study.toml."),
@@ -136,7 +137,7 @@ def report(
 @study_app.command("consolidate")
 @one_line_errors
 def consolidate(
-    study_dir: Path = typer.Argument(..., help="Study folder written by `rfp-twin study run`."),
+    study_dir: Path = typer.Argument(..., help=STUDY_DIR_HELP),
 ) -> None:
     """Merge a study folder's per-trial files into DIR/results/trials.parquet (verified, then
     the per-trial files are removed); `study run` does this itself when a study finishes."""

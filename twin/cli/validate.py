@@ -13,6 +13,10 @@ validate TRAJECTORY.json --layout sdss-v-apo | --calibration DIR [--geometry FIL
     ``--buffer`` say otherwise), the buffer the trajectory kept
     (:mod:`rfp_twin.twin.kept_buffer`) and the 3D check; writes ``TRAJECTORY.validation.json``;
     exit 4 on any 2D or 3D collision.
+validate PROBE_RUN_DIR
+    A probe-arm run folder (``rfp-twin plan --preset miradas-probe``): the 2D check every
+    0.01 s and the FCL 3D check every 0.1 s (:mod:`rfp_twin.validation.probe`); writes
+    ``PROBE_RUN_DIR/validation.json``; exit 4 on any contact.
 calibrate-buffer --preset sdss-v --out DIR [--instrument sdss-v-apo]
     Calibrate the 2D collision buffer against the 3D meshes; writes
     ``DIR/buffer_calibration.md``, ``DIR/calibration.json`` and PNG figures.
@@ -35,9 +39,10 @@ import typer
 from rfp_twin.models.errors import SpecError, field_error
 from rfp_twin.twin.cli.console import (EXIT_BAD_INPUT, EXIT_COLLISION, command_line, console, fail,
                                   one_line_errors, progress_bar)
-from rfp_twin.twin.cli.motion_option import (SOURCE_HELP, MotionOptions, angles_option,
-                                             calibration_option, is_trajectory_file, layout_option,
-                                             load_motion, preset_option)
+from rfp_twin.twin.cli.motion_option import (SOURCE_HELP, MotionOptions, is_trajectory_file,
+                                             load_motion)
+from rfp_twin.twin.cli.options import options_from, with_options
+from rfp_twin.twin.cli.shared_options import PRESET_HELP
 
 __all__ = ["register", "validate", "calibrate_buffer", "VALIDATION_JSON", "EXIT_BAD_INPUT",
            "EXIT_COLLISION"]
@@ -61,6 +66,7 @@ def _geometry_for_run(geometry: Optional[str], spec, summary: dict):
 
 
 @one_line_errors
+@with_options(MotionOptions)
 def validate(
     run: Path = typer.Argument(..., help=SOURCE_HELP),
     geometry: Optional[str] = typer.Option(
@@ -73,13 +79,10 @@ def validate(
     resolution: float = typer.Option(1e-5, help="Time resolution of the bisection, s."),
     out: Optional[Path] = typer.Option(None, help="Report file [default: RUN/validation.json, "
                                        "or FILE.validation.json beside a trajectory file]."),
-    layout: Optional[str] = layout_option(),
-    calibration: Optional[Path] = calibration_option(),
-    preset: Optional[str] = preset_option(),
-    angles: str = angles_option(),
     buffer: Optional[float] = typer.Option(
         None, help="2D buffer of a trajectory file's check, mm [default: the preset's, 2.0 for "
         "sdss-v-production]."),
+    **motion_values,
 ) -> None:
     """Check a run folder or a trajectory file against the 3D collision meshes (FCL); a
     trajectory file also gets the 2D check under its preset's rule and the buffer it kept.
@@ -89,8 +92,17 @@ def validate(
     from rfp_twin.models.files import atomic_write_bytes
     from rfp_twin.twin.run_dir import TRAJECTORIES, TRAJECTORIES_TO_FOLD
 
-    options = MotionOptions(layout=layout, calibration=calibration, preset=preset,
-                            angles=angles)
+    options = options_from(MotionOptions, motion_values)
+    from rfp_twin.twin.probe_files import is_probe_run
+
+    if is_probe_run(run):
+        if geometry is not None or fold or buffer is not None or any(
+                motion_values.get(k) is not None for k in ("layout", "calibration", "preset")):
+            raise field_error(SpecError, "--geometry/--fold/--layout/--calibration/--preset/"
+                              "--buffer", "given", "none of them with a probe-arm run folder")
+        from rfp_twin.twin.cli.probe import validate_probe_cli
+
+        return validate_probe_cli(run, out)
     is_file = is_trajectory_file(run)
     if buffer is not None and not is_file:
         raise field_error(SpecError, "--buffer", buffer, "only with a trajectory file (a run "
@@ -171,7 +183,7 @@ def calibrate_buffer(
     more: Optional[List[str]] = typer.Argument(
         None, metavar="[GEOMETRY]...", show_default=False,
         help="More geometries for --compare (so that `--compare sdss-v sdss-v-p1` works)."),
-    preset: str = typer.Option("sdss-v", help="Robot preset name or path to a robot TOML."),
+    preset: str = typer.Option("sdss-v", help=PRESET_HELP),
     out: Path = typer.Option(..., help="Folder for the report and figures."),
     geometry: Optional[str] = typer.Option(
         None, "--geometry", help="Robot TOML (or preset) whose [geometry] table gives the "

@@ -17,6 +17,11 @@ simulated reconfigurations (Sayres et al. 2021 Sect. 5). One module per job:
   figures in the style of Sayres 2021 Figs. 10-18
 - :mod:`~rfp_twin.twin.studies.frontier` (with ``frontier_plot``): design studies'
   coverage x feasibility table, Pareto frontiers and figure
+- :mod:`~rfp_twin.twin.studies.yield_options`: the yield axes (catalogue kind, density,
+  exposure), declared once; :mod:`~rfp_twin.twin.studies.yield_trial`: a catalogue trial
+  through the plannable loop -> completeness, targets per pointing and per hour;
+  :mod:`~rfp_twin.twin.studies.yield_report` (with ``yield_plot``): the yield table,
+  completeness against density per design, the yield frontier
 
 Example::
 
@@ -33,6 +38,8 @@ from rfp_twin.twin.studies.run import RunSummary, run_study
 from rfp_twin.twin.studies.runner import run_trial
 from rfp_twin.twin.studies.spec import (GRID_KEYS, PARAM_COLUMNS, STUDY_KEYS, Study, StudyError,
                                StudyPoint, Trial)
+from rfp_twin.twin.studies.yield_options import YieldOptions
+from rfp_twin.twin.studies.yield_report import YieldPoint, yield_points
 from rfp_twin.twin.studies.store import (COMPACT_PREFIX, CONSOLIDATED, RESULTS, SCHEMA, STUDY_COPY,
                                          compact_results, consolidate_results, default_out_dir,
                                          done_keys, read_results, results_dir, write_row)
@@ -43,5 +50,5 @@ __all__ = [
     "run_study", "read_results", "done_keys", "write_row", "compact_results",
     "results_dir", "default_out_dir", "machine_workers", "PARAM_COLUMNS", "RESULTS",
     "STUDY_COPY", "COMPACT_PREFIX", "CONSOLIDATED", "consolidate_results", "COVERAGE_FILE",
-    "read_coverage", "update_coverage",
+    "read_coverage", "update_coverage", "YieldOptions", "YieldPoint", "yield_points",
 ]

@@ -112,7 +112,8 @@ def drive(client, study: Study, todo: list[list[Trial]], results: Path, summary:
         items = [(t.point.to_dict(), t.point.spec, t.index, t.seed, t.key, t.point.ids())
                  for t in b]
         fut = client.submit(run_batch, items, study.check, study.name, study.seed,
-                            study.firmware, key=f"rfp-study-{b[0].key}", pure=False)
+                            study.firmware, exposure_s=study.exposure_s,
+                            key=f"rfp-study-{b[0].key}", pure=False)
         by_key[fut.key] = b
         return fut
 

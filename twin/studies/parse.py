@@ -19,12 +19,14 @@ from importlib import resources
 from pathlib import Path
 
 from rfp_twin.models.layout import hex_rings, nearest_hex_counts
-from rfp_twin.models.options import option_info
+from rfp_twin.models.options import option_info, option_range
+from rfp_twin.planners.plan.settings import PlannerSettings
 from rfp_twin.models.robot import RobotSpec
 from rfp_twin.twin.studies.resolve import load_preset, resolve_point
 from rfp_twin.twin.studies.spec import (ALGORITHM_ALIASES, DIRECTIONS, GRID_DEFAULTS, GRID_KEYS,
                                         LAYOUTS, NAME_RE, RESOLUTIONS, SAME_TARGET_KEYS,
                                         STUDY_KEYS, Study, StudyError, StudyPoint)
+from rfp_twin.twin.studies.yield_options import YieldOptions
 
 __all__ = ["list_studies", "study_path", "load_study", "parse_study", "is_int"]
 
@@ -96,7 +98,12 @@ def _study_table(source: str, st: dict) -> dict:
     if not (isinstance(same, list) and all(k in SAME_TARGET_KEYS for k in same)
             and len(set(same)) == len(same)):
         raise _bad(source, "study.same_targets", same, STUDY_KEYS["same_targets"])
-    out.update(trials=trials, seed=seed, batch=batch, same_targets=tuple(same))
+    exposure = st.get("exposure_s", YieldOptions().exposure_s)
+    info = option_info(YieldOptions, "exposure_s")
+    if not (_is_num(exposure) and info.lo <= exposure <= info.hi):
+        raise _bad(source, "study.exposure_s", exposure, STUDY_KEYS["exposure_s"])
+    out.update(trials=trials, seed=seed, batch=batch, same_targets=tuple(same),
+               exposure_s=float(exposure))
     return out
 
 
@@ -205,30 +212,27 @@ def parse_study(text: str, source: str = "<study>", base_dir: str | Path | None 
                  batch=opts["batch"], grid=merged, points=tuple(points), source=source, text=text,
                  same_targets=opts["same_targets"], coverage=opts["coverage"],
                  firmware=opts["firmware"],
-                 families=tuple(f for f, _ in families if f is not None))
+                 families=tuple(f for f, _ in families if f is not None),
+                 exposure_s=opts["exposure_s"])
 
 
-def _planner_range(name: str) -> tuple:
-    """A grid key's range as the planner declares it (PlannerSettings' option)."""
-    from dataclasses import fields
-
-    from rfp_twin.planners.plan import PlannerSettings
-
-    info = option_info(PlannerSettings, name)
-    kind = next(f.type for f in fields(PlannerSettings) if f.name == name)
-    return info.lo, info.hi, False, "int" in str(kind)
+def _declared_range(cls, name: str) -> tuple:
+    """A grid key's range as ``cls`` declares it (PlannerSettings or YieldOptions)."""
+    lo, hi, integer = option_range(cls, name)
+    return lo, hi, False, integer
 
 
 #: Numeric grid keys: (low, high, low excluded, integer); None = unbounded. The planner's
-#: own options take the range PlannerSettings declares.
+#: own options take the range PlannerSettings declares, the yield axes YieldOptions'.
 _NUMERIC = {
     "fold_alpha_deg": (None, None, False, False), "fold_beta_deg": (None, None, False, False),
     "pitch_mm": (0.0, None, True, False), "alpha_length_mm": (0.0, None, True, False),
     "beta_length_mm": (0.0, None, True, False), "buffer_mm": (0.0, None, True, False),
     "segment_end_mm": (0.0, None, False, False),
-    **{k: _planner_range(k) for k in ("step_deg", "greed", "phobia", "max_rounds", "max_steps")},
+    **{k: _declared_range(PlannerSettings, k) for k in ("step_deg", "greed", "phobia", "max_rounds", "max_steps")},
     "arm_ratio": (0.0, None, True, False), "pitch_over_reach": (0.0, None, True, False),
     "n_rafts": (1, None, False, True),
+    **{k: _declared_range(YieldOptions, k) for k in ("density", "priority_levels", "assign_rounds")},
 }
 
 
@@ -264,7 +268,9 @@ def _check_value(source: str, key: str, v, prefix: str = "grid"):
         if a is None:
             raise _bad(source, where, v, allowed)
         return a
-    choices = {"layout": LAYOUTS, "resolution": RESOLUTIONS, "direction": DIRECTIONS}[key]
+    choices = {"layout": LAYOUTS, "resolution": RESOLUTIONS, "direction": DIRECTIONS,
+               **{k: option_info(YieldOptions, k).choices
+                  for k in ("catalogue", "density_unit")}}[key]
     if v not in choices:
         raise _bad(source, where, v, allowed)
     return v

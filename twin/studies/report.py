@@ -22,7 +22,9 @@ figure                            drawn when                            paper
 
 Design studies (``coverage = true``) also get the design frontier: coverage against
 targets kept and fold time per design point, search vs replace, Pareto frontiers, and a
-table of every design (:mod:`rfp_twin.twin.studies.frontier`).
+table of every design (:mod:`rfp_twin.twin.studies.frontier`). Yield studies (grid key
+``catalogue``) get the science yield instead of the paper's figures: completeness against
+density per design, the yield frontier and a table (:mod:`rfp_twin.twin.studies.yield_report`).
 
 Lines follow the paper: MC blue solid, GC red dashed; box plots have whiskers at 1.5 IQR
 and outliers as diamonds; grid-size plots shade the 95 % confidence interval of the mean
@@ -55,6 +57,7 @@ from rfp_twin.twin.studies.groups import (ALG_SHORT, SHORT, Group, fmt_num, fmt_
 from rfp_twin.twin.studies.paper import PAPER_FIG10, paper_sections
 from rfp_twin.twin.studies.spec import StudyError
 from rfp_twin.twin.studies.store import RESULTS, replace_atomically
+from rfp_twin.twin.studies.yield_report import yield_section
 
 __all__ = ["Report", "write_report", "load_groups", "Group", "FIGURES", "PAPER_FIG10"]
 
@@ -305,7 +308,13 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None, *,
     if info["ignored_rows"]:
         notes.append(f"{info['ignored_rows']} rows of grid points that are not in study.toml "
                      "were left out (use --all-points to include them).")
-    drawn, skipped = draw_figures(groups, varied, out, notes)
+    yield_lines, yield_figs = yield_section(study_dir, out, {g.point_id for g in groups},
+                                            info["study"].exposure_s if info["study"] else None)
+    if yield_lines:
+        drawn, skipped = [], {"paper figures (Sayres 2021 Figs. 10-18)":
+                              "a yield study: see the science yield section"}
+    else:
+        drawn, skipped = draw_figures(groups, varied, out, notes)
     design_lines: list[str] = []
     design_figs: list[Path] = []
     if (study_dir / COVERAGE_FILE).is_file():
@@ -316,14 +325,17 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None, *,
     ok_groups = [g for g in groups if g.v("efficiency").size]
 
     lines = _head_section(study_dir, info, groups, varied)
-    rep = _reproduce_line(ok_groups[0]) if ok_groups else ""
+    rep = _reproduce_line(ok_groups[0]) if ok_groups and not yield_lines else ""
     if rep:
         lines += [rep, ""]
+    lines += yield_lines
     lines += design_lines
-    lines += paper_sections(ok_groups)
-    tl, trends = _trend_section(ok_groups, varied)
-    lines += tl
-    lines += _grid_section(ok_groups, varied)
+    trends: dict = {}
+    if not yield_lines:
+        lines += paper_sections(ok_groups)
+        tl, trends = _trend_section(ok_groups, varied)
+        lines += tl
+        lines += _grid_section(ok_groups, varied)
     lines += ["## Figures", ""]
     for n in drawn:
         lines += [f"![{n}]({n}.png)", "", f"*{n}.png*: {FIGURES[n]}", ""]
@@ -339,4 +351,5 @@ def write_report(study_dir: str | Path, out_dir: str | Path | None = None, *,
         lines += ["## Notes", ""] + [f"- {n}" for n in notes] + [""]
     md = replace_atomically(out / REPORT_MD,
                             lambda tmp: tmp.write_text("\n".join(lines), encoding="utf-8"))
-    return Report(md, design_figs + [out / f"{n}.png" for n in drawn], skipped, trends, notes)
+    return Report(md, yield_figs + design_figs + [out / f"{n}.png" for n in drawn], skipped,
+                  trends, notes)

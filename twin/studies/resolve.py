@@ -10,7 +10,10 @@ The arm lengths of a point (mm):
    segment end moved by :func:`rfp_twin.models.arm_ratio.with_arm_ratio`.
 
 Checks: buffer < pitch / 2, the fold within the joint limits (the spec's own checks), the
-real focal plane's fixed pitch, a raft layout that holds its robots at the pitch. Errors
+real focal plane's fixed pitch (``sdss-v-fps`` and the calibrated ``sdss-v-apo`` /
+``sdss-v-lco``), a raft layout that holds its robots at the pitch, a density per deg^2
+only where the layout has a telescope's plate scale. The yield keys are kept only when
+the point has a ``catalogue``. Errors
 are one :class:`~rfp_twin.twin.studies.spec.StudyError` line naming the file, the field
 (``grid.KEY`` or ``family[NAME].KEY``) and what is allowed. Units: mm, deg.
 """
@@ -21,7 +24,8 @@ from pathlib import Path
 from rfp_twin.models.arm_ratio import with_arm_ratio
 from rfp_twin.models.errors import RfpError
 from rfp_twin.models.robot import RobotSpec, list_presets, load_spec
-from rfp_twin.twin.studies.spec import StudyError, StudyPoint, point_layout
+from rfp_twin.twin.studies.spec import (FIXED_LAYOUTS, YIELD_COLUMNS, StudyError, StudyPoint,
+                                        point_layout)
 
 __all__ = ["load_preset", "resolve_point"]
 
@@ -60,8 +64,8 @@ def _arms(raw: dict, base: RobotSpec, pitch: float, buffer: float) -> tuple[floa
 def _layout(source: str, raw: dict, pitch: float, where: str, origin) -> tuple[int, int | None]:
     """(n_robots, n_rafts) of the point's layout; a raft layout is built to check it fits."""
     layout = raw["layout"]
-    if layout == "sdss-v-fps":
-        return point_layout("sdss-v-fps", 0, 0.0).n_robots, None
+    if layout in FIXED_LAYOUTS:
+        return point_layout(layout, 0, 0.0).n_robots, None
     if layout != "raft":
         return int(raw["n_robots"]), None
     n_rafts = raw.get("n_rafts")
@@ -94,10 +98,10 @@ def resolve_point(source: str, raw: dict, specs: dict[str, RobotSpec], *, family
     if family is not None:
         where = f"family {family}: {where}"
     layout = raw["layout"]
-    if layout == "sdss-v-fps":
+    if layout in FIXED_LAYOUTS:
         if raw["pitch_mm"] is not None and abs(raw["pitch_mm"] - 22.4) > 1e-9:
             raise StudyError(f"{source}: {origin('pitch_mm')} = {raw['pitch_mm']} with layout = "
-                             "'sdss-v-fps' (point " + where + "); allowed: unset or 22.4 (the "
+                             f"'{layout}' (point " + where + "); allowed: unset or 22.4 (the "
                              "real focal plane has a fixed pitch)")
         pitch = 22.4
     else:
@@ -124,6 +128,7 @@ def resolve_point(source: str, raw: dict, specs: dict[str, RobotSpec], *, family
     max_steps = raw["max_steps"] if raw["max_steps"] is not None else \
         int(round(1000.0 / raw["step_deg"]))
     por = raw.get("pitch_over_reach")
+    yields = _yield_keys(source, raw, layout, base.name, where, origin)
     return StudyPoint(preset=raw["preset"], layout=layout, n_robots=int(n_robots),
                       pitch_mm=float(pitch), alpha_length_mm=float(spec.alpha_length_mm),
                       beta_length_mm=float(spec.beta_length_mm),
@@ -135,4 +140,20 @@ def resolve_point(source: str, raw: dict, specs: dict[str, RobotSpec], *, family
                       max_steps=int(max_steps), family=family,
                       arm_ratio=None if ratio is None else float(ratio),
                       pitch_over_reach=None if por is None else float(por), n_rafts=n_rafts,
-                      spec=spec, seed_exclude=tuple(seed_exclude))
+                      spec=spec, seed_exclude=tuple(seed_exclude), **yields)
+
+
+def _yield_keys(source: str, raw: dict, layout: str, spec_name: str, where: str,
+                origin) -> dict:
+    """The yield keys of a point with a catalogue (all None without one); a density per
+    deg^2 needs a telescope (the SDSS-V layouts and presets)."""
+    if raw.get("catalogue") is None:
+        return {k: None for k in YIELD_COLUMNS}
+    if raw["density_unit"] == "deg2":
+        from rfp_twin.twin.catalogue_source import telescope_for
+
+        if telescope_for("auto", layout, spec_name) is None:
+            raise StudyError(f"{source}: {origin('density_unit')} = 'deg2' (point {where}); "
+                             "allowed: robot or patrol (a density per deg^2 needs a telescope's "
+                             "plate scale: SDSS-V layouts and presets)")
+    return {k: raw[k] for k in YIELD_COLUMNS}

@@ -18,6 +18,10 @@ records ``kept`` (robots at their own target / movable robots: replaced and stil
 deadlocked robots are lost), ``plan_s`` (wall time of planning, searches included) and
 ``targets_hash`` (equal hashes: the same targets, e.g. search and replace of one draw).
 
+Yield points (a ``catalogue`` grid key) plan a mock catalogue through the plannable loop
+instead (:func:`rfp_twin.twin.studies.yield_trial.yield_columns`): the same plan columns,
+plus completeness, targets per pointing and per hour, the loop's rounds.
+
 The functions here run on Dask workers (:func:`run_batch`) or in this process
 (:func:`run_trial`). Row columns: :data:`rfp_twin.twin.studies.store.SCHEMA`; units mm, deg, s.
 """
@@ -42,9 +46,9 @@ from rfp_twin.planners.plan import OFFLINE, REACHED
 from rfp_twin.twin.pipeline import (FIELD_ALGORITHMS, PlanOptions, Reconfiguration,
                                     folded_clearance_error)
 from rfp_twin.twin.studies.parse import parse_study
-from rfp_twin.twin.studies.spec import PARAM_COLUMNS, StudyPoint, point_layout
+from rfp_twin.twin.studies.spec import PARAM_COLUMNS, YIELD_COLUMNS, StudyPoint, point_layout
 
-__all__ = ["run_trial", "run_batch"]
+__all__ = ["run_trial", "run_batch", "plan_columns", "targets_hash"]
 
 #: A batch item: (point dict, spec, trial index, seed, key, ids: point / design / geometry).
 BatchItem = tuple[dict, RobotSpec, int, int, str, dict]
@@ -83,29 +87,29 @@ def _warm_up() -> None:
 
 
 def run_trial(point: StudyPoint, index: int, base_seed: int, check: bool = True,
-              study: str = "", firmware: bool = False) -> dict:
+              study: str = "", firmware: bool = False, exposure_s: float = 900.0) -> dict:
     """Run one trial in this process; returns its row (a dict with the :data:`SCHEMA` columns)."""
     row = _trial_row(point.to_dict(), point.spec, point.trial_seed(base_seed, index), index, check,
-                     firmware)
+                     firmware, exposure_s)
     row.update(key=point.trial_key(base_seed, index), study=study, base_seed=int(base_seed),
                **point.ids())
     return row
 
 
 def run_batch(batch: list[BatchItem], check: bool, study: str, base_seed: int,
-              firmware: bool = False) -> list[dict]:
-    """Dask task: a few trials, in order; their rows."""
+              firmware: bool = False, exposure_s: float = 900.0) -> list[dict]:
+    """Dask task: a few trials, in order; their rows (``exposure_s``: yield points)."""
     _warm_up()
     rows = []
     for point, spec, index, seed, key, ids in batch:
-        row = _trial_row(point, spec, seed, index, check, firmware)
+        row = _trial_row(point, spec, seed, index, check, firmware, exposure_s)
         row.update(key=key, study=study, base_seed=int(base_seed), **ids)
         rows.append(row)
     return rows
 
 
 def _trial_row(point: dict, spec: RobotSpec, seed: int, index: int, check: bool,
-               firmware: bool = False) -> dict:
+               firmware: bool = False, exposure_s: float = 900.0) -> dict:
     t0, c0 = time.perf_counter(), time.thread_time()
     row: dict[str, Any] = {k: point[k] for k in PARAM_COLUMNS}
     la, lb = point["alpha_length_mm"], point["beta_length_mm"]
@@ -116,7 +120,14 @@ def _trial_row(point: dict, spec: RobotSpec, seed: int, index: int, check: bool,
     try:
         geom = _geometry(spec, point["layout"], int(point["n_robots"]), point.get("n_rafts"))
         row["n_fiducials"] = geom.layout.n_fiducials
-        row.update(_plan_and_check(geom, _plan_options(point), int(seed), check, firmware))
+        if point.get("catalogue") is not None:
+            from rfp_twin.twin.studies.yield_trial import yield_columns
+
+            row.update({k: point[k] for k in YIELD_COLUMNS}, exposure_s=float(exposure_s))
+            row.update(yield_columns(geom, _plan_options(point), point, int(seed), firmware,
+                                     exposure_s))
+        else:
+            row.update(_plan_and_check(geom, _plan_options(point), int(seed), check, firmware))
     except RfpError as exc:  # e.g. no clear random targets in a very dense array
         row.update(status="error", error=f"{type(exc).__name__}: {exc}")
     row["wall_s"] = time.perf_counter() - t0
@@ -163,14 +174,21 @@ def _plan_and_check(geom: ArrayGeometry, options: PlanOptions, seed: int, check:
                             if math.isfinite(rep.min_clearance_mm) else None)
             if firmware:
                 cols["fold_fw_s"] = float(geom.spec.path_delay_s + traj.duration)
+    cols.update(plan_columns(plan))
+    return cols
+
+
+def plan_columns(plan) -> dict:
+    """The row columns of a Plan's metrics: efficiency, convergence, fold and planner
+    times (s), replaced / deadlocked robots, rounds, steps, status, ``kept`` (robots at
+    their own target / movable robots)."""
     m = plan.metrics
     status = np.asarray(plan.status)
     movable = int(np.sum(status != OFFLINE))
-    cols.update(efficiency=float(m["efficiency"]), convergence=float(m["convergence"]),
+    return dict(efficiency=float(m["efficiency"]), convergence=float(m["convergence"]),
                 fold_time_s=float(m["fold_time_s"]), tau_pg_s=float(m["tau_pg_s"]),
                 tau_sr_s=float(m["tau_sr_s"]), n_replaced=int(m["n_replaced"]),
                 n_deadlocked=int(m["n_deadlocked"]), rounds=int(m["rounds"]),
                 n_steps=int(m["n_steps"]), status="deadlocked" if m["n_deadlocked"] else "ok",
                 kept=float(np.sum(status == REACHED)) / max(1, movable),
                 search_s=float(m["search_s"]) if "search_s" in m else None)
-    return cols

@@ -63,7 +63,16 @@ and the allowed values. Shipped studies live in ``twin/study_files/*.toml`` (``s
 ``sim2``, ``sim3``: the paper's Simulations 1-3 at full size (Tables 1, 2, 4); ``*-small``:
 versions that finish in minutes on a laptop; ``density*``: pitch / reach x buffer maps;
 ``design*``: coverage and feasibility over arm ratio x pitch / reach x buffer, two robot
-families, search vs replace on the same targets).
+families, search vs replace on the same targets; ``yield*``: science yield per design).
+
+Yield studies (:mod:`~rfp_twin.twin.studies.yield_options`) add the grid keys ``catalogue``
+(uniform | clustered: the trial plans a mock catalogue through the plannable loop, assign
+-> plan -> forbid lost targets, instead of random per-robot targets), ``density`` and
+``density_unit`` (science targets per robot, per patrol area or per deg^2),
+``priority_levels`` and ``assign_rounds``, and the ``[study]`` key ``exposure_s`` (for
+targets per hour). Layouts ``sdss-v-apo`` / ``sdss-v-lco`` are the calibrated SDSS-V
+instruments (fixed pitch). Like the design keys, they enter a point's identity only when
+``catalogue`` is set.
 
 Trials and seeds
 ----------------
@@ -89,10 +98,14 @@ import numpy as np
 
 from rfp_twin.models.errors import RfpError
 from rfp_twin.models.layout import Layout
+from rfp_twin.models.options import option_info, option_range
 from rfp_twin.models.robot import RobotSpec
+from rfp_twin.planners.plan.settings import DEFAULT_GREED_PHOBIA, PlannerSettings
+from rfp_twin.twin.studies.yield_options import (YIELD_GRID_KEYS, YIELD_STUDY_KEYS, YieldOptions,
+                                                 yield_help)
 
 __all__ = ["StudyError", "StudyPoint", "Trial", "Study", "STUDY_KEYS", "GRID_KEYS",
-           "GRID_DEFAULTS", "PARAM_COLUMNS", "DESIGN_COLUMNS", "GEOMETRY_COLUMNS",
+           "GRID_DEFAULTS", "PARAM_COLUMNS", "DESIGN_COLUMNS", "YIELD_COLUMNS", "FIXED_LAYOUTS", "GEOMETRY_COLUMNS",
            "SAME_TARGET_KEYS", "point_layout"]
 
 
@@ -116,11 +129,25 @@ STUDY_KEYS = {
                     "phobia (their values plan the same targets)",
     "coverage": "true | false (measure coverage once per design geometry)",
     "firmware": "true | false (post-process trials: firmware-ready fold time)",
+    **{k: yield_help(k) for k in YIELD_STUDY_KEYS},
 }
+#: Planning directions (PlannerSettings' ``direction``).
+DIRECTIONS = option_info(PlannerSettings, "direction").choices
+
+
+def planner_allowed(name: str) -> str:
+    """What a planner grid key holds, as PlannerSettings declares it (range and unit)."""
+    lo, hi, integer = option_range(PlannerSettings, name)
+    both = lo is not None and hi is not None
+    return (f"{'an integer' if integer else 'a number'} {'in ' if both else ''}"
+            f"{option_info(PlannerSettings, name).allowed()}")
+
+
 #: Keys of the [grid] table and what they hold.
 GRID_KEYS = {
     "preset": "a robot preset name or a path to a robot TOML",
-    "layout": "\"hex\" | \"sdss-v-fps\" | \"raft\" (n_rafts rafts of 63 robots)",
+    "layout": "\"hex\" | \"sdss-v-fps\" | \"sdss-v-apo\" | \"sdss-v-lco\" | \"raft\" (n_rafts "
+              "rafts of 63 robots)",
     "n_robots": "a centred hex count 1 + 3r(r+1) (7, 19, 37, 61, 91, ..., 547, ...)",
     "pitch_mm": "a number > 0 (mm)",
     "alpha_length_mm": "a number > 0 (mm)",
@@ -129,32 +156,37 @@ GRID_KEYS = {
     "fold_alpha_deg": "a number (deg) within the preset's alpha limits",
     "fold_beta_deg": "a number (deg) within the preset's beta limits",
     "buffer_mm": "a number > 0 (mm), below pitch / 2",
-    "step_deg": "a number in [0.001, 10] (deg)",
+    "step_deg": planner_allowed("step_deg"),
     "algorithm": "greedy | markov (GC / MC accepted) | apf | capf",
-    "greed": "a number in [0, 1]",
-    "phobia": "a number in [0, 1]",
+    "greed": planner_allowed("greed"),
+    "phobia": planner_allowed("phobia"),
     "resolution": "replace | search | none",
-    "direction": "reverse | forward",
-    "max_rounds": "an integer >= 0",
-    "max_steps": "an integer >= 1",
+    "direction": " | ".join(DIRECTIONS),
+    "max_rounds": planner_allowed("max_rounds"),
+    "max_steps": planner_allowed("max_steps"),
     "arm_ratio": "a finite number in (0, inf) (alpha / beta; the reach is kept)",
     "pitch_over_reach": "a finite number in (0, inf) (the arms are scaled; the pitch is kept)",
     "n_rafts": "an integer >= 1 (rafts of 63 robots; layout = \"raft\" only)",
+    **{k: yield_help(k) for k in YIELD_GRID_KEYS},
 }
-LAYOUTS = ("hex", "sdss-v-fps", "raft")
+#: Layouts of a fixed focal plane (pitch 22.4 mm): the SDSS-V design and its instruments.
+FIXED_LAYOUTS = ("sdss-v-fps", "sdss-v-apo", "sdss-v-lco")
+LAYOUTS = ("hex", "raft") + FIXED_LAYOUTS
 #: Grid keys whose values may share the random targets (``study.same_targets``).
 SAME_TARGET_KEYS = ("resolution", "max_rounds", "direction", "greed", "phobia")
 RESOLUTIONS = ("replace", "search", "none")
 ALGORITHM_ALIASES = {"greedy": "greedy", "gc": "greedy", "markov": "markov", "mc": "markov",
                      "apf": "apf", "capf": "capf"}
-DIRECTIONS = ("reverse", "forward")
 GRID_DEFAULTS = {
     "preset": "sdss-v", "layout": "hex", "n_robots": 547, "pitch_mm": None,
     "alpha_length_mm": None, "beta_length_mm": None, "segment_end_mm": None,
-    "fold_alpha_deg": None, "fold_beta_deg": None, "buffer_mm": None, "step_deg": 0.1,
-    "algorithm": "greedy", "greed": 0.9, "phobia": 0.3, "resolution": "replace",
-    "direction": "reverse", "max_rounds": 50, "max_steps": None,
+    "fold_alpha_deg": None, "fold_beta_deg": None, "buffer_mm": None,
+    "step_deg": PlannerSettings().step_deg, "algorithm": "greedy",
+    "greed": DEFAULT_GREED_PHOBIA["markov"][0], "phobia": DEFAULT_GREED_PHOBIA["markov"][1],
+    "resolution": "replace", "direction": PlannerSettings().direction,
+    "max_rounds": PlannerSettings().max_rounds, "max_steps": None,
     "arm_ratio": None, "pitch_over_reach": None, "n_rafts": None,
+    **{k: getattr(YieldOptions(), k) for k in YIELD_GRID_KEYS},
 }
 NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
@@ -165,6 +197,8 @@ PARAM_COLUMNS = ("preset", "layout", "n_robots", "pitch_mm", "alpha_length_mm",
                  "greed", "phobia", "resolution", "direction", "max_rounds", "max_steps")
 #: Optional parameters of design studies: in a point's identity only when set (not None).
 DESIGN_COLUMNS = ("family", "arm_ratio", "pitch_over_reach", "n_rafts")
+#: Yield parameters: in a point's identity only when its ``catalogue`` is set.
+YIELD_COLUMNS = YIELD_GRID_KEYS
 #: Parameters that fix the focal-plane geometry (coverage depends on nothing else).
 GEOMETRY_COLUMNS = ("layout", "n_robots", "n_rafts", "pitch_mm", "alpha_length_mm",
                     "beta_length_mm")
@@ -173,11 +207,16 @@ GEOMETRY_COLUMNS = ("layout", "n_robots", "n_rafts", "pitch_mm", "alpha_length_m
 @functools.lru_cache(maxsize=8)
 def point_layout(kind: str, n_robots: int, pitch_mm: float, n_rafts: int | None = None) -> Layout:
     """The layout of a grid point: ``sdss-v-fps`` (the real focal plane; ``n_robots`` and
-    ``pitch_mm`` ignored), ``raft`` (``n_rafts`` Spec-S5 rafts of 63 robots at
+    ``pitch_mm`` ignored), ``sdss-v-apo`` / ``sdss-v-lco`` (the calibrated instruments,
+    likewise), ``raft`` (``n_rafts`` Spec-S5 rafts of 63 robots at
     ``pitch_mm``, :func:`rfp_twin.models.layout.rafts.raft_layout`) or a centred hex grid
     of ``n_robots`` at ``pitch_mm``."""
     if kind == "sdss-v-fps":
         return Layout.sdss_v_fps()
+    if kind in FIXED_LAYOUTS:
+        from rfp_twin.models.instrument.layout import instrument_layout
+
+        return instrument_layout(kind)
     if kind == "raft":
         from rfp_twin.models.layout.rafts import raft_layout
 
@@ -219,22 +258,32 @@ class StudyPoint:
     arm_ratio: float | None = None
     pitch_over_reach: float | None = None
     n_rafts: int | None = None
+    catalogue: str | None = None
+    density: float | None = None
+    density_unit: str | None = None
+    priority_levels: int | None = None
+    assign_rounds: int | None = None
     spec: RobotSpec = field(compare=False, repr=False, default=None)  # type: ignore[assignment]
     #: grid keys left out of the trial seed (``study.same_targets``)
     seed_exclude: tuple = field(compare=False, repr=False, default=())
 
     def to_dict(self) -> dict[str, Any]:
         """The parameters as plain Python values (the hash input): every
-        :data:`PARAM_COLUMNS` key, and the :data:`DESIGN_COLUMNS` keys that are set."""
+        :data:`PARAM_COLUMNS` key, the :data:`DESIGN_COLUMNS` keys that are set and, with a
+        catalogue, the :data:`YIELD_COLUMNS`."""
         out = {k: getattr(self, k) for k in PARAM_COLUMNS}
         out.update((k, getattr(self, k)) for k in DESIGN_COLUMNS if getattr(self, k) is not None)
+        if self.catalogue is not None:
+            out.update((k, getattr(self, k)) for k in YIELD_COLUMNS)
         return out
 
     @functools.cached_property
     def design_id(self) -> str:
         """12 hex digits naming the design point: the parameters but ``resolution`` (the
-        search and replace rows of one design share it)."""
-        return _short_hash({k: v for k, v in self.to_dict().items() if k != "resolution"})
+        search and replace rows of one design share it) and the catalogue (every density
+        and catalogue kind of one design share it)."""
+        return _short_hash({k: v for k, v in self.to_dict().items()
+                            if k != "resolution" and k not in YIELD_COLUMNS})
 
     @functools.cached_property
     def geometry_id(self) -> str:
@@ -307,6 +356,7 @@ class Study:
     coverage : bool, measure coverage once per geometry (:mod:`~rfp_twin.twin.studies.coverage`)
     firmware : bool, post-process trials (firmware-ready fold time)
     families : tuple of family names (empty: the [grid] table alone)
+    exposure_s : float, exposure time per pointing for targets per hour, s (yield studies)
     """
 
     name: str
@@ -324,6 +374,7 @@ class Study:
     coverage: bool = False
     firmware: bool = False
     families: tuple = ()
+    exposure_s: float = YieldOptions().exposure_s
 
     @property
     def n_trials(self) -> int:

@@ -117,6 +117,34 @@ SCHEMA = pa.schema([
     ("search_s", pa.float64()),        # of which in the deadlock search (resolution "search")
     ("fold_fw_s", pa.float64()),       # firmware-ready fold: path delay + trajectory (study.firmware)
     ("firmware_error", pa.string()),   # why post-processing failed (the plan's columns are kept)
+    # yield studies (grid key catalogue; null otherwise): twin/studies/yield_trial.py
+    ("catalogue", pa.string()),        # uniform | clustered
+    ("density", pa.float64()),         # science targets per density_unit
+    ("density_unit", pa.string()),     # robot | patrol | deg2
+    ("priority_levels", pa.int32()),
+    ("assign_rounds", pa.int32()),     # assign -> plan rounds allowed
+    ("catalogue_text", pa.string()),   # rfp-twin plan --catalogue TEXT --seed SEED replays it
+    ("n_targets", pa.int32()),         # science targets drawn in the field
+    ("n_available", pa.int32()),       # of which within reach of a robot (a fiber accepts it)
+    ("targets_per_robot", pa.float64()),  # n_available / robots
+    ("n_assigned", pa.int32()),        # science targets assigned by the last round
+    ("targets_per_pointing", pa.int32()),  # science targets assigned and kept by the plan
+    ("completeness", pa.float64()),    # targets_per_pointing / n_available
+    ("completeness_top", pa.float64()),  # the same for the highest priority level
+    ("completeness_by_priority", pa.string()),  # JSON {level: completeness}
+    ("reconfig_s", pa.float64()),      # fold -> targets: firmware-ready (path delay + trajectory)
+    ("exposure_s", pa.float64()),
+    ("targets_per_hour", pa.float64()),  # 3600 targets_per_pointing / (reconfig_s + exposure_s)
+    ("loop_rounds", pa.int32()),       # assign -> plan rounds run
+    ("loop_lost", pa.int32()),         # assigned targets the plan lost, over all rounds
+    ("n_lost", pa.int32()),            # of which in the last round (0: every target kept)
+    ("assign_s", pa.float64()),        # assignment wall time, all rounds
+    ("assign_status", pa.string()),    # optimal | feasible | heuristic (last round)
+    ("assign_gap", pa.float64()),      # (bound - objective) / bound, last round
+    ("missed_busy", pa.int32()),       # targets within reach not taken: every robot busy
+    ("missed_parked", pa.int32()),     # blocked only by parked neighbours' parking poses
+    ("missed_neighbour", pa.int32()),  # blocked by a neighbour on another target
+    ("missed_other", pa.int32()),      # none of these (forbidden by the loop, time limit)
 ])
 
 

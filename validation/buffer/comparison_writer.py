@@ -7,7 +7,7 @@ from pathlib import Path
 
 from rfp_twin.models.files import atomic_write_text
 from rfp_twin.validation.buffer.comparison import BufferComparison, slug
-from rfp_twin.validation.buffer.writer import save_figure, write_report
+from rfp_twin.validation.buffer.writer import finish_figure, pyplot, save_figure, write_report
 
 #: Files of the side-by-side report.
 COMPARISON_MD = "buffer_comparison.md"
@@ -20,11 +20,7 @@ def write_comparison(comp: BufferComparison, out_dir: str | Path, command: str =
 
     Returns {"markdown": path, "json": path, "figures": [paths], "columns": [folders]}.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     cols = comp.columns
@@ -35,8 +31,7 @@ def write_comparison(comp: BufferComparison, out_dir: str | Path, command: str =
         folders.append(sub)
     figs = []
 
-    def save(fig, name):
-        figs.append(save_figure(fig, out, name))
+    save = figs.append
 
     fig, ax = plt.subplots(figsize=(7.0, 4.4))
     for k, c in enumerate(cols):
@@ -44,12 +39,10 @@ def write_comparison(comp: BufferComparison, out_dir: str | Path, command: str =
         ax.axvline(c.safe_buffer_mm, color=line.get_color(), linewidth=1, linestyle="--")
     ax.plot(cols[0].buffers_mm, cols[0].forbidden_fraction, color="k", linewidth=1,
             label="2D-forbidden (share of all)")
-    ax.set_xlabel("collision buffer b, mm (dashed: each b*)")
-    ax.set_ylabel("2D-forbidden but safe (share of forbidden)")
-    ax.set_ylim(0, 1)
-    ax.set_title(f"{comp.spec_name}: space wasted by the 2D model")
-    ax.legend(fontsize=7)
-    save(fig, "wasted_space_compare.png")
+    save(finish_figure(fig, ax, out, "wasted_space_compare.png",
+                       xlabel="collision buffer b, mm (dashed: each b*)",
+                       ylabel="2D-forbidden but safe (share of forbidden)", ylim=(0, 1),
+                       title=f"{comp.spec_name}: space wasted by the 2D model", legend_size=7))
 
     fig, axes = plt.subplots(len(cols), 1, figsize=(7.0, 2.3 * len(cols)), sharex=True,
                              squeeze=False)
@@ -66,7 +59,7 @@ def write_comparison(comp: BufferComparison, out_dir: str | Path, command: str =
         ax.set_title(c.geometry, fontsize=9)
         ax.legend(fontsize=7)
     axes[-1, 0].set_xlabel(f"buffer one draw needs, mm (p = {cols[0].probability:g})")
-    save(fig, "mc_compare.png")
+    save(save_figure(fig, out, "mc_compare.png"))
 
     md_path = out / COMPARISON_MD
     atomic_write_text(md_path, _markdown(comp, command, folders))

@@ -23,6 +23,30 @@ def save_figure(fig, out: Path, name: str) -> Path:
     os.replace(tmp, path)
     return path
 
+
+def pyplot():
+    """matplotlib.pyplot on the file-only Agg backend (no display needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def finish_figure(fig, ax, out: Path, name: str, *, xlabel: str, ylabel: str, title: str,
+                  ylim: tuple | None = None, legend_size: int = 8) -> Path:
+    """Label ``ax`` (axis labels, title, optional y range, legend) and save ``fig`` as
+    ``out / name`` (:func:`save_figure`)."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    if ylim is not None:
+        ax.set_ylim(*ylim)
+    ax.set_title(title)
+    ax.legend(fontsize=legend_size)
+    return save_figure(fig, out, name)
+
+
 def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "") -> dict:
     """Write ``buffer_calibration.md``, ``calibration.json`` and the figures
     (``scatter_2d_3d.png``, ``wasted_space.png``, ``mc_buffer.png``) to ``out_dir``.
@@ -30,17 +54,10 @@ def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "")
     Returns {"markdown": path, "json": path, "figures": [paths]}. Files are written to
     temporary names and renamed.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figs = []
-
-    def save(fig, name):
-        figs.append(save_figure(fig, out, name))
 
     d2 = np.asarray(cal.scatter_d2_mm)
     d3 = np.asarray(cal.scatter_d3_mm)
@@ -53,11 +70,10 @@ def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "")
                            f"2 x preset buffer {cal.spec_buffer_mm:g} mm"),
                           (cal.mc_buffer_mm, ":", f"2 b_p = {2 * cal.mc_buffer_mm:.3f} mm")):
         ax.axvline(2 * b, color="k", linestyle=style, linewidth=1, label=lab)
-    ax.set_xlabel("2D model distance D2 (beta segments), mm")
-    ax.set_ylabel("3D mesh distance D3 (FCL), mm")
-    ax.set_title(f"{cal.spec_name}: 2D vs 3D distance ({len(d2)} configurations)")
-    ax.legend(fontsize=8)
-    save(fig, "scatter_2d_3d.png")
+    figs.append(finish_figure(
+        fig, ax, out, "scatter_2d_3d.png", xlabel="2D model distance D2 (beta segments), mm",
+        ylabel="3D mesh distance D3 (FCL), mm",
+        title=f"{cal.spec_name}: 2D vs 3D distance ({len(d2)} configurations)"))
 
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     ax.plot(cal.buffers_mm, cal.wasted_fraction, marker="o", ms=3,
@@ -67,12 +83,10 @@ def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "")
     ax.axvline(cal.safe_buffer_mm, color="k", linewidth=1, label=f"b* {cal.safe_buffer_mm:.3f} mm")
     ax.axvline(cal.mc_buffer_mm, color="k", linestyle=":", linewidth=1,
                label=f"b_p (p = {cal.probability:g}) {cal.mc_buffer_mm:.3f} mm")
-    ax.set_xlabel("collision buffer, mm")
-    ax.set_ylabel("fraction")
-    ax.set_ylim(0, 1)
-    ax.set_title(f"{cal.spec_name}: space wasted by the 2D model ({cal.n_samples} samples)")
-    ax.legend(fontsize=8)
-    save(fig, "wasted_space.png")
+    figs.append(finish_figure(
+        fig, ax, out, "wasted_space.png", xlabel="collision buffer, mm", ylabel="fraction",
+        ylim=(0, 1),
+        title=f"{cal.spec_name}: space wasted by the 2D model ({cal.n_samples} samples)"))
 
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
     ax.hist(cal.mc_samples_mm, bins=50, alpha=0.7 if cal.instrument else 1.0,
@@ -85,12 +99,11 @@ def write_report(cal: BufferCalibration, out_dir: str | Path, command: str = "")
                    label=f"b_p with spread {cal.spread_buffer_mm:.3f} mm")
     ax.axvline(cal.safe_buffer_mm + cal.paper_sigma_eps_mm, color="tab:red", linestyle="--",
                label=f"b* + paper sigma_eps {cal.safe_buffer_mm + cal.paper_sigma_eps_mm:.3f} mm")
-    ax.set_xlabel("buffer needed for one draw of angular errors B(e), mm")
-    ax.set_ylabel("draws")
-    ax.set_title(f"{cal.n_draws} draws, errors +-{cal.angular_error_deg[0]:g} / "
-                 f"+-{cal.angular_error_deg[1]:g} deg")
-    ax.legend(fontsize=8)
-    save(fig, "mc_buffer.png")
+    figs.append(finish_figure(
+        fig, ax, out, "mc_buffer.png",
+        xlabel="buffer needed for one draw of angular errors B(e), mm", ylabel="draws",
+        title=f"{cal.n_draws} draws, errors +-{cal.angular_error_deg[0]:g} / "
+              f"+-{cal.angular_error_deg[1]:g} deg"))
 
     w = cal.worst
     rows = "\n".join(f"| {b:.2f} | {f:.4f} | {wf:.4f} |"

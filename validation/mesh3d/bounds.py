@@ -50,7 +50,7 @@ from numba.core import types
 from numba.extending import overload
 
 from rfp_twin.models.geometry import LINKS
-from rfp_twin.validation.numerics import clamp01, segment_distance
+from rfp_twin.validation.numerics import clamp01, closest_parameters, segment_distance
 
 #: Piece pairs whose capsule bounds are within this of the smallest of their two links
 #: also get the hull bound in :func:`store_pose_bounds_at`, mm.
@@ -234,32 +234,21 @@ def segment_distance3(p0x, p0y, p0z, p1x, p1y, p1z, q0x, q0y, q0z, q1x, q1y, q1z
     a = d1x * d1x + d1y * d1y + d1z * d1z
     e = d2x * d2x + d2y * d2y + d2z * d2z
     f = d2x * rx + d2y * ry + d2z * rz
-    if a <= 1e-18 and e <= 1e-18:
-        s = 0.0
-        t = 0.0
-    elif a <= 1e-18:
-        s = 0.0
-        t = clamp01(f / e)
-    else:
-        c = d1x * rx + d1y * ry + d1z * rz
-        if e <= 1e-18:
-            t = 0.0
-            s = clamp01(-c / a)
-        else:
-            b = d1x * d2x + d1y * d2y + d1z * d2z
-            den = a * e - b * b
-            s = clamp01((b * f - c * e) / den) if den > 1e-18 * a * e else 0.0
-            t = (b * s + f) / e
-            if t < 0.0:
-                t = 0.0
-                s = clamp01(-c / a)
-            elif t > 1.0:
-                t = 1.0
-                s = clamp01((b - c) / a)
+    c = d1x * rx + d1y * ry + d1z * rz
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    den = a * e - b * b
+    s = clamp01((b * f - c * e) / den) if den > 1e-18 * a * e else 0.0
+    s, t = closest_parameters(a, b, c, e, f, s, 1e-18)
     dx = p0x + d1x * s - q0x - d2x * t
     dy = p0y + d1y * s - q0y - d2y * t
     dz = p0z + d1z * s - q0z - d2z * t
     return math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@njit(cache=True, inline="always")
+def posed(c, s, x, y, px, py):
+    """Point (px, py) of a link frame rotated by (cos, sin) = (c, s) and moved by (x, y), mm."""
+    return x + c * px - s * py, y + s * px + c * py
 
 
 @njit(cache=True)
@@ -273,14 +262,10 @@ def capsule3_bound(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb, plane_b, s_xy,
     """
     z0a, gxa, gya = plane_a
     z0b, gxb, gyb = plane_b
-    a0x = xa + ca * cap[u, 5] - sa * cap[u, 6]
-    a0y = ya + sa * cap[u, 5] + ca * cap[u, 6]
-    a1x = xa + ca * cap[u, 8] - sa * cap[u, 9]
-    a1y = ya + sa * cap[u, 8] + ca * cap[u, 9]
-    b0x = xb + cb * cap[v, 5] - sb * cap[v, 6]
-    b0y = yb + sb * cap[v, 5] + cb * cap[v, 6]
-    b1x = xb + cb * cap[v, 8] - sb * cap[v, 9]
-    b1y = yb + sb * cap[v, 8] + cb * cap[v, 9]
+    a0x, a0y = posed(ca, sa, xa, ya, cap[u, 5], cap[u, 6])
+    a1x, a1y = posed(ca, sa, xa, ya, cap[u, 8], cap[u, 9])
+    b0x, b0y = posed(cb, sb, xb, yb, cap[v, 5], cap[v, 6])
+    b1x, b1y = posed(cb, sb, xb, yb, cap[v, 8], cap[v, 9])
     d = segment_distance3(a0x, a0y, cap[u, 7] + z0a + gxa * a0x + gya * a0y,
                           a1x, a1y, cap[u, 10] + z0a + gxa * a1x + gya * a1y,
                           b0x, b0y, cap[v, 7] + z0b + gxb * b0x + gyb * b0y,
@@ -320,14 +305,10 @@ def piece_bound_cs(u, v, ca, sa, xa, ya, plane_a, cb, sb, xb, yb, plane_b, s_xy,
                    pptr, pxy, tight_below):
     """:func:`piece_bound_at` with the link rotations given as cosine and sine (computed once
     per link, not once per piece pair)."""
-    a0x = xa + ca * cap[u, 0] - sa * cap[u, 1]
-    a0y = ya + sa * cap[u, 0] + ca * cap[u, 1]
-    a1x = xa + ca * cap[u, 2] - sa * cap[u, 3]
-    a1y = ya + sa * cap[u, 2] + ca * cap[u, 3]
-    b0x = xb + cb * cap[v, 0] - sb * cap[v, 1]
-    b0y = yb + sb * cap[v, 0] + cb * cap[v, 1]
-    b1x = xb + cb * cap[v, 2] - sb * cap[v, 3]
-    b1y = yb + sb * cap[v, 2] + cb * cap[v, 3]
+    a0x, a0y = posed(ca, sa, xa, ya, cap[u, 0], cap[u, 1])
+    a1x, a1y = posed(ca, sa, xa, ya, cap[u, 2], cap[u, 3])
+    b0x, b0y = posed(cb, sb, xb, yb, cap[v, 0], cap[v, 1])
+    b1x, b1y = posed(cb, sb, xb, yb, cap[v, 2], cap[v, 3])
     dxy = segment_distance(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y) - cap[u, 4] - cap[v, 4] - s_xy
     za0, za1 = plane_range(plane_a, a0x, a0y, a1x, a1y, cap[u, 4])
     zb0, zb1 = plane_range(plane_b, b0x, b0y, b1x, b1y, cap[v, 4])

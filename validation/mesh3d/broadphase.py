@@ -65,10 +65,12 @@ def link_state(o, kind, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab):
     return th, obj_x[o] + ox, obj_y[o] + oy
 
 
-@njit(cache=True)
-def bound_at(p, t, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
-             pa, ta, aa, pb, tb, ab, kptr, cap, zlim, pptr, pxy, tight_below):
-    """Lower bound C of the distance of link pair p at time t, mm."""
+@njit(cache=True, inline="always")
+def pair_state(p, t, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb,
+               tb, ab):
+    """Link pair p at time t: ``(ka, kb, theta_a, x_a, y_a, plane_a, theta_b, x_b, y_b,
+    plane_b, s_xy, s_z)``, the two links' kinds, poses (rad, mm) and height planes, and the
+    pair's slacks (mm)."""
     ka = lp_ka[p]
     kb = lp_kb[p]
     oa = lp_oa[p]
@@ -76,8 +78,17 @@ def bound_at(p, t, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
     tha, xa, ya = link_state(oa, ka, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab)
     thb, xb, yb = link_state(ob, kb, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab)
     s_xy, s_z = pair_slack(la, p)
-    return link_bound_at(ka, kb, tha, xa, ya, obj_plane(la, oa), thb, xb, yb, obj_plane(la, ob),
-                         s_xy, s_z, kptr, cap, zlim, pptr, pxy, tight_below)
+    return ka, kb, tha, xa, ya, obj_plane(la, oa), thb, xb, yb, obj_plane(la, ob), s_xy, s_z
+
+
+@njit(cache=True)
+def bound_at(p, t, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la,
+             pa, ta, aa, pb, tb, ab, kptr, cap, zlim, pptr, pxy, tight_below):
+    """Lower bound C of the distance of link pair p at time t, mm."""
+    ka, kb, tha, xa, ya, pl_a, thb, xb, yb, pl_b, s_xy, s_z = pair_state(
+        p, t, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab)
+    return link_bound_at(ka, kb, tha, xa, ya, pl_a, thb, xb, yb, pl_b, s_xy, s_z, kptr, cap,
+                         zlim, pptr, pxy, tight_below)
 
 
 @njit(cache=True)
@@ -281,17 +292,11 @@ def poses_and_bounds(qp, qt, lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, 
     poses = np.empty((n, 6))
     bounds = np.full((n, max_pp), np.inf)
     for k in range(n):
-        p = qp[k]
-        t = qt[k]
-        ka = lp_ka[p]
-        kb = lp_kb[p]
-        oa = lp_oa[p]
-        ob = lp_ob[p]
-        tha, xa, ya = link_state(oa, ka, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab)
-        thb, xb, yb = link_state(ob, kb, t, obj_rob, obj_x, obj_y, la, pa, ta, aa, pb, tb, ab)
-        s_xy, s_z = pair_slack(la, p)
-        store_pose_bounds_at(poses, bounds, k, ka, kb, tha, xa, ya, obj_plane(la, oa),
-                             thb, xb, yb, obj_plane(la, ob), s_xy, s_z, kptr, cap, zlim, pptr, pxy)
+        ka, kb, tha, xa, ya, pl_a, thb, xb, yb, pl_b, s_xy, s_z = pair_state(
+            qp[k], qt[k], lp_oa, lp_ka, lp_ob, lp_kb, obj_rob, obj_x, obj_y, la, pa, ta, aa,
+            pb, tb, ab)
+        store_pose_bounds_at(poses, bounds, k, ka, kb, tha, xa, ya, pl_a, thb, xb, yb, pl_b,
+                             s_xy, s_z, kptr, cap, zlim, pptr, pxy)
     return poses, bounds
 
 

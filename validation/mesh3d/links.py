@@ -80,17 +80,27 @@ def fit_capsule(points_xy: np.ndarray, n_radii: int = 24) -> tuple[np.ndarray, f
     segment : (2, 2) float64, mm (the two ends; equal for a disk)
     radius : float, mm
     """
-    p = np.asarray(points_xy, dtype=np.float64).reshape(-1, 2)
+    return _capsule_on_axis(points_xy, 2, n_radii,
+                            lambda rad, length: 2.0 * rad * length + math.pi * rad * rad)
+
+
+def _capsule_on_axis(points, dim: int, n_radii: int, size) -> tuple[np.ndarray, float]:
+    """The capsule of :func:`fit_capsule` (``dim`` 2) or :func:`fit_capsule_3d` (``dim`` 3):
+    segment on the points' principal axis, the candidate radius whose capsule has the
+    smallest ``size(radius, segment length)`` (area or volume), radius re-measured."""
+    p = np.asarray(points, dtype=np.float64).reshape(-1, dim)
     c = p.mean(axis=0)
     q = p - c
     if len(p) >= 2 and np.ptp(q, axis=0).max() > 0:
         _, _, vt = np.linalg.svd(q, full_matrices=False)
         u = vt[0]
     else:
-        u = np.array([1.0, 0.0])
-    nrm = np.array([-u[1], u[0]])
+        u = np.eye(dim)[0]
     s = q @ u
-    w = np.abs(q @ nrm)
+    if dim == 2:
+        w = np.abs(q @ np.array([-u[1], u[0]]))
+    else:
+        w = np.linalg.norm(q - s[:, None] * u, axis=1)
     r_min = float(w.max())
     r_max = max(r_min, float(np.hypot(s, w).max()))
     best = None
@@ -102,9 +112,9 @@ def fit_capsule(points_xy: np.ndarray, n_radii: int = 24) -> tuple[np.ndarray, f
             s0 = s1 = 0.5 * (s0 + s1)
         seg = np.array([c + s0 * u, c + s1 * u])
         rad = float(_points_to_segment(p, seg[0], seg[1]).max())
-        area = 2.0 * rad * (s1 - s0) + math.pi * rad * rad
-        if best is None or area < best[0] - 1e-12:
-            best = (area, seg, rad)
+        measure = size(rad, s1 - s0)
+        if best is None or measure < best[0] - 1e-12:
+            best = (measure, seg, rad)
     return best[1], best[2]
 
 
@@ -129,31 +139,9 @@ def fit_capsule_3d(points: np.ndarray, n_radii: int = 24) -> tuple[np.ndarray, f
     segment : (2, 3) float64, mm
     radius : float, mm
     """
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    c = p.mean(axis=0)
-    q = p - c
-    if len(p) >= 2 and np.ptp(q, axis=0).max() > 0:
-        _, _, vt = np.linalg.svd(q, full_matrices=False)
-        u = vt[0]
-    else:
-        u = np.array([1.0, 0.0, 0.0])
-    s = q @ u
-    w = np.linalg.norm(q - s[:, None] * u, axis=1)
-    r_min = float(w.max())
-    r_max = max(r_min, float(np.hypot(s, w).max()))
-    best = None
-    for r in np.linspace(r_min, r_max, n_radii) if r_max > r_min else [r_min]:
-        reach = np.sqrt(np.maximum(r * r - w * w, 0.0))
-        s1 = float(np.max(s - reach))
-        s0 = float(np.min(s + reach))
-        if s0 > s1:
-            s0 = s1 = 0.5 * (s0 + s1)
-        seg = np.array([c + s0 * u, c + s1 * u])
-        rad = float(_points_to_segment(p, seg[0], seg[1]).max())
-        volume = math.pi * rad * rad * (s1 - s0) + 4.0 / 3.0 * math.pi * rad ** 3
-        if best is None or volume < best[0] - 1e-12:
-            best = (volume, seg, rad)
-    return best[1], best[2]
+    return _capsule_on_axis(points, 3, n_radii,
+                            lambda rad, length: (math.pi * rad * rad * length
+                                                 + 4.0 / 3.0 * math.pi * rad ** 3))
 
 
 def _piece(piece, oz: float) -> dict:

@@ -28,6 +28,7 @@ from numba import njit
 
 from rfp_twin.models.errors import TrajectoryError
 from rfp_twin.validation.numerics import segment_distance
+from rfp_twin.validation.probe.geometry import arm_frames, arm_joints, capsule_ends, sample_poses
 
 #: Samples per chunk of the dense check (bounds memory).
 CHUNK = 2048
@@ -64,44 +65,6 @@ class ProbeCheckReport:
     duration_s: float = 0.0
 
 
-def _frames(spec) -> np.ndarray:
-    """(n, 4) base x, y and heading cos, sin of each arm (x axis towards the centre)."""
-    polar = np.radians(spec.first_arm_deg + 360.0 / spec.n_arms * np.arange(spec.n_arms))
-    return np.column_stack([spec.bench_radius_mm * np.cos(polar),
-                            spec.bench_radius_mm * np.sin(polar),
-                            -np.cos(polar), -np.sin(polar)])
-
-
-def _joints(spec, q_deg: np.ndarray):
-    """J3, J4, the tube direction and d34 of poses ``q_deg`` (..., 2), arm frame."""
-    t1 = np.radians(q_deg[..., 0])
-    t2 = np.radians(q_deg[..., 1])
-    j3 = np.stack([spec.d13_mm * np.cos(t1), spec.d13_mm * np.sin(t1)], -1)
-    j4 = np.stack([spec.d12_mm - spec.d24_mm * np.cos(t2), spec.d24_mm * np.sin(t2)], -1)
-    v = j4 - j3
-    d34 = np.linalg.norm(v, axis=-1)
-    return j3, j4, v / d34[..., None], d34
-
-
-def _capsules(spec, q_deg: np.ndarray, frames: np.ndarray):
-    """Ends (..., n, 5, 2, 2) and radii (5,) of the capsules of poses ``q_deg`` (..., n, 2)
-    in the world; ``frames`` (n, 4)."""
-    j3, j4, u, _ = _joints(spec, q_deg)
-    tip = j3 + spec.d3tip_mm * u
-    head0 = tip - spec.head_length_mm * u
-    j1 = np.zeros_like(j3)
-    j2 = np.broadcast_to(np.array([spec.d12_mm, 0.0]), j3.shape)
-    ends = np.stack([np.stack([j1, j3], -2), np.stack([j2, j4], -2),
-                     np.stack([j3 - spec.tube_rear_mm * u, j3 + spec.ds1_mm * u], -2),
-                     np.stack([j3, head0], -2), np.stack([head0, tip], -2)], -3)
-    c, s = frames[:, 2], frames[:, 3]
-    x = frames[:, 0][:, None, None] + c[:, None, None] * ends[..., 0] - s[:, None, None] * ends[..., 1]
-    y = frames[:, 1][:, None, None] + s[:, None, None] * ends[..., 0] + c[:, None, None] * ends[..., 1]
-    radii = np.array([spec.link_radius_mm, spec.link_radius_mm, spec.cabinet_radius_mm,
-                      spec.tube_radius_mm, spec.head_radius_mm])
-    return np.stack([x, y], -1), radii
-
-
 @njit(cache=True)
 def _min_gaps(ends, radii, pad):
     """Per sample, the smallest capsule gap between two arms and (arm a, arm b, body a,
@@ -122,15 +85,6 @@ def _min_gaps(ends, radii, pad):
                             gap[k] = g
                             who[k, 0], who[k, 1], who[k, 2], who[k, 3] = a, b, i, j
     return gap, who
-
-
-def _sample(breakpoints: dict, n_arms: int, t: np.ndarray) -> np.ndarray:
-    out = np.empty((t.size, n_arms, 2))
-    for i in range(n_arms):
-        times, q = breakpoints[i]
-        for k in range(2):
-            out[:, i, k] = np.interp(t, times, q[:, k])
-    return out
 
 
 def start_stop_cycles(times: np.ndarray, q: np.ndarray, tol: float = 1e-9) -> int:
@@ -171,16 +125,16 @@ def check_probe_plan(spec, breakpoints: dict, *, buffer_mm: float = 0.0, dt_s: f
     bp = {i: (np.asarray(t, float), np.asarray(q, float)) for i, (t, q) in breakpoints.items()}
     t_end = max(float(t[-1]) for t, _ in bp.values())
     n_t = int(math.ceil(t_end / dt_s - 1e-9)) + 1
-    frames = _frames(spec)
+    frames = arm_frames(spec)
     pad = 2.0 * buffer_mm
     best = (np.inf, (0.0, -1, -1, -1, -1))
     contacts, zoa, too_fast = [], [], []
     lim = np.array([spec.theta1_limits_deg, spec.theta2_limits_deg])
     for lo in range(0, n_t, CHUNK):
         t = dt_s * np.arange(lo, min(n_t, lo + CHUNK))
-        q = _sample(bp, n, t)                                    # (T, n, 2)
+        q = sample_poses(bp, n, t)                                    # (T, n, 2)
         _bad_poses(spec, q, lim, t, zoa)
-        ends, radii = _capsules(spec, q, frames)                 # (T, n, 5, 2, 2)
+        ends, radii = capsule_ends(spec, q, frames)                 # (T, n, 5, 2, 2)
         gap, who = _min_gaps(np.ascontiguousarray(ends.reshape(len(t), n, 5, 4)), radii, pad)
         k = int(np.argmin(gap))
         if gap[k] < best[0]:
@@ -206,7 +160,7 @@ def check_probe_plan(spec, breakpoints: dict, *, buffer_mm: float = 0.0, dt_s: f
 def _bad_poses(spec, q: np.ndarray, lim: np.ndarray, t: np.ndarray, out: list,
                arm: int | None = None) -> None:
     """Append (arm, t) of poses ``q`` (T, n, 2) in the ZoA or out of range (first 20)."""
-    _, _, _, d34 = _joints(spec, q)
+    _, _, _, d34 = arm_joints(spec, q)
     bad = (d34 <= spec.ds1_mm) | (d34 >= spec.ds2_mm)
     bad |= np.any((q < lim[:, 0] - TOL) | (q > lim[:, 1] + TOL), axis=-1)
     for tk, a in np.argwhere(bad)[:max(0, 20 - len(out))]:

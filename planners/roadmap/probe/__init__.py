@@ -10,10 +10,10 @@ mm, s.
 from rfp_twin.planners.roadmap.probe.prioritized import (SUPPORTED_KINDS, plan_probe_arms,
                                                  priority_order, travel_times)
 from rfp_twin.planners.roadmap.probe.report import ArmRow, ProbePlan
-from rfp_twin.planners.roadmap.probe.settings import PRIORITIES, ProbePlanSettings
+from rfp_twin.planners.roadmap.probe.settings import PRIORITIES, RECOVERING, ProbePlanSettings
 from rfp_twin.planners.roadmap.probe.targets import random_target_set, typical_scenario
 from rfp_twin.planners.roadmap.probe.world import ObstacleTime, pose_gaps
 
-__all__ = ["PRIORITIES", "SUPPORTED_KINDS", "ArmRow", "ObstacleTime", "ProbePlan",
+__all__ = ["PRIORITIES", "RECOVERING", "SUPPORTED_KINDS", "ArmRow", "ObstacleTime", "ProbePlan",
            "ProbePlanSettings", "plan_probe_arms", "pose_gaps", "priority_order",
            "random_target_set", "travel_times", "typical_scenario"]

@@ -25,6 +25,7 @@ from rfp_twin.models.errors import TargetError
 from rfp_twin.models.kinds import MIRADAS_PROBE, require_kind
 from rfp_twin.models.kinds.probe_kinematics import edges_forbidden
 from rfp_twin.planners.roadmap.probe.report import ArmRow, ProbePlan
+from rfp_twin.planners.roadmap.probe.retreat import retreat_poses
 from rfp_twin.planners.roadmap.probe.settings import ProbePlanSettings
 from rfp_twin.planners.roadmap.probe.world import ObstacleTime, pose_gaps
 from rfp_twin.planners.roadmap import Arm, RoadmapSettings, build_roadmap, edge_time, plan_arm
@@ -86,7 +87,9 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
     -------
     ProbePlan: per-arm rows (Tables 1-2) of the last pass and, when every arm got one,
     trajectories. With ``settings.replans`` > 0 a failed pass is followed by another with
-    the arm that failed first in the order (Sect. 2.1), at most that many times; with
+    the arm that failed first in the order (Sect. 2.1), at most that many times (fewer
+    when an order comes back); then, for each make-way window of
+    ``settings.windows_s``, the same passes with that window (:func:`_one_pass`); with
     ``settings.search_nodes`` > 0, what they leave unsolved goes to a search over the
     priorities (:func:`rfp_twin.planners.roadmap.probe.search.search_priorities`).
     """
@@ -100,16 +103,25 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
     check_clear(kind, start, "start")
     check_clear(kind, goal, "target")
     clock = time.perf_counter()
-    order = priority_order(kind, start, goal, s.priority, rng)
-    plan = _one_pass(kind, start, goal, s, order, rng)
-    passes, checks = 1, plan.checks
-    while not plan.success and passes <= s.replans:
-        # Sect. 2.1: plan again with another priority order; the arm that found no
-        # trajectory goes first
-        order = [plan.failed_arm] + [a for a in order if a != plan.failed_arm]
-        plan = _one_pass(kind, start, goal, s, order, rng)
-        passes += 1
-        checks += plan.checks
+    first = priority_order(kind, start, goal, s.priority, rng)
+    passes, checks = 0, 0
+    for window in (0.0, *s.windows_s):
+        order, tried = first, set()
+        for again in range(s.replans + 1):
+            if again:
+                # Sect. 2.1: plan again with another priority order; the arm that found
+                # no trajectory goes first (an order tried before ends this window's passes)
+                order = [plan.failed_arm] + [a for a in order if a != plan.failed_arm]
+                if tuple(order) in tried:
+                    break
+            tried.add(tuple(order))
+            plan = _one_pass(kind, start, goal, s, order, rng, window, retreats=passes > 0)
+            passes += 1
+            checks += plan.checks
+            if plan.success:
+                break
+        if plan.success:
+            break
     if not plan.success and s.search_nodes:
         # what prioritized passes cannot solve: search the priorities themselves
         from rfp_twin.planners.roadmap.probe.search import search_priorities
@@ -125,12 +137,21 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
 
 
 def _one_pass(kind, start: np.ndarray, goal: np.ndarray, s: ProbePlanSettings, order: list[int],
-              rng: np.random.Generator) -> ProbePlan:
-    """Algorithm 1 once, in priority ``order``."""
+              rng: np.random.Generator, window_s: float = 0.0,
+              retreats: bool = False) -> ProbePlan:
+    """Algorithm 1 once, in priority ``order``.
+
+    With ``window_s`` > 0, every arm not yet planned is also an obstacle at its start
+    pose for the first ``window_s`` s (make-way window): an arm planned earlier waits for
+    it to leave instead of sweeping through it at once, and that arm, planned later
+    against the earlier ones, must then leave its start within the window. With
+    ``retreats`` every roadmap also gets the retreat and stop-over vertices of
+    ``s.retreat_deg`` (:func:`~rfp_twin.planners.roadmap.probe.retreat.retreat_poses`)."""
     clock = time.perf_counter()
     rs = roadmap_settings(s)
     est = travel_times(kind, start, goal)
-    world = ObstacleTime(kind, s.dt_col_s, s.horizon_s + s.dt_s)
+    horizon = s.horizon_s + s.dt_s
+    planned = ObstacleTime(kind, s.dt_col_s, horizon)
     vmax = kind.max_speed_deg_s()
     limits = kind.joint_limits_deg()
     step = vmax * s.dt_col_s
@@ -140,15 +161,26 @@ def _one_pass(kind, start: np.ndarray, goal: np.ndarray, s: ProbePlanSettings, o
     for rank, i in enumerate(order):
         arm_clock = time.perf_counter()
         counter = {"checks": 0}
+        world = planned
+        below = order[rank + 1:] if window_s > 0.0 else []
+        if below:
+            world = ObstacleTime(kind, s.dt_col_s, horizon)
+            world.obs, world.circ = planned.obs, planned.circ
+            world.members = list(planned.members)
+            for j in below:
+                world.add_until(j, start[j], window_s)
 
-        def collides(q, t, i=i, counter=counter):
+        def collides(q, t, i=i, counter=counter, world=world):
             if world.members:
                 counter["checks"] += len(t)
             return world.collides(i, q, t)
 
+        t_fixed = max(t_end_above, window_s if below else 0.0)
         arm = Arm(start=start[i], goal=goal[i], vmax=vmax, forbidden=kind.forbidden,
                   collides=collides, lower=limits[:, 0], upper=limits[:, 1], t_start=0.0,
-                  hold_until=t_end_above, t_static=t_end_above,
+                  hold_until=t_fixed, t_static=t_fixed,
+                  extra_vertices=retreat_poses(kind, start[i], goal[i],
+                                               s.retreat_deg if retreats else ()),
                   edges_forbidden=lambda q0, q1, st: edges_forbidden(
                       np.ascontiguousarray(q0), np.ascontiguousarray(q1), st, kind.links,
                       kind.limits))
@@ -173,7 +205,7 @@ def _one_pass(kind, start: np.ndarray, goal: np.ndarray, s: ProbePlanSettings, o
         row.start_stop = traj.n_start_stop
         rows.append(row)
         trajectories[i] = traj
-        world.add(i, traj.times, traj.configs)
+        planned.add(i, traj.times, traj.configs)
         t_end_above = max(t_end_above, traj.t_end)
     return ProbePlan(kind, start, goal, s, order, rows, trajectories, True, None,
                      time.perf_counter() - clock)

@@ -17,6 +17,7 @@ import numpy as np
 
 from rfp_twin.models.kinds.probe_kinematics import edges_forbidden
 from rfp_twin.planners.roadmap.probe.report import ArmRow, ProbePlan
+from rfp_twin.planners.roadmap.probe.retreat import retreat_poses
 from rfp_twin.planners.roadmap.probe.settings import ProbePlanSettings
 from rfp_twin.planners.roadmap.probe.world import ObstacleTime, trajectories_touch
 from rfp_twin.planners.roadmap import Arm, priority_search
@@ -56,7 +57,9 @@ def search_priorities(kind, start: np.ndarray, goal: np.ndarray, s: ProbePlanSet
         t_static = max((tr.t_end for tr in higher.values()), default=0.0)
         return Arm(start=start[i], goal=goal[i], vmax=vmax, forbidden=kind.forbidden,
                    collides=collides, lower=limits[:, 0], upper=limits[:, 1],
-                   t_static=t_static, edges_forbidden=lambda q0, q1, st: edges_forbidden(
+                   t_static=t_static,
+                   extra_vertices=retreat_poses(kind, start[i], goal[i], s.retreat_deg),
+                   edges_forbidden=lambda q0, q1, st: edges_forbidden(
                        np.ascontiguousarray(q0), np.ascontiguousarray(q1), st, kind.links,
                        kind.limits))
 

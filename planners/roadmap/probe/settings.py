@@ -43,6 +43,13 @@ class ProbePlanSettings:
     search_nodes : int, when the passes fail: priority-based search (Ma et al. 2019) with
         at most this many search-tree nodes (0: none, the paper's planner)
     priority : "travel-time" (Sect. 7) | "still-first" | "random" (:data:`PRIORITIES`)
+    windows_s : tuple of float, make-way windows tried in turn when the passes fail, s:
+        passes in which every arm not yet planned stands at its start for the first
+        ``w`` s, so that arms planned before it wait for it to leave (each with the
+        re-plans); () = none, the paper's planner
+    retreat_deg : tuple of float, in every pass after the first, each roadmap also gets its
+        start and goal with theta1 raised by these amounts (retreats towards the park
+        side) and three stop-overs on its direct route, deg (Sect. 9's "garage" idea)
     """
 
     dt_s: float = 6.0
@@ -56,6 +63,8 @@ class ProbePlanSettings:
     priority: str = "travel-time"
     replans: int = 0
     search_nodes: int = 0
+    windows_s: tuple[float, ...] = ()
+    retreat_deg: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         where = "ProbePlanSettings"
@@ -78,5 +87,16 @@ class ProbePlanSettings:
         if not isinstance(self.search_nodes, int) or self.search_nodes < 0:
             raise field_error(SpecError, "search_nodes", self.search_nodes, "an integer >= 0",
                               where)
+        for name in ("windows_s", "retreat_deg"):
+            v = getattr(self, name)
+            if not isinstance(v, tuple) or not all(
+                    isinstance(x, (int, float)) and math.isfinite(x) and x > 0 for x in v):
+                raise field_error(SpecError, name, v, "a tuple of finite numbers > 0", where)
         if self.priority not in PRIORITIES:
             raise field_error(SpecError, "priority", self.priority, ", ".join(PRIORITIES), where)
+
+
+#: The paper's planner followed by what it leaves unsolved going to our recovery: up to 8
+#: re-plans with the failing arm first, then make-way windows of 12 / 24 / 36 s, retreat
+#: and stop-over vertices in every pass after the first (the first pass is the paper's).
+RECOVERING = dict(replans=8, windows_s=(12.0, 24.0, 36.0), retreat_deg=(15.0, 30.0, 45.0))

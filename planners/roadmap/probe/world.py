@@ -160,6 +160,10 @@ def trajectories_touch(caps_a, circ_a, caps_b, circ_b, pad):
     return False
 
 
+#: Where an obstacle that has left is put, mm (far from any bench).
+FAR_MM = 1.0e9
+
+
 class ObstacleTime:
     """The arms planned so far, sampled on the ``dt_col`` clock up to ``horizon_s``."""
 
@@ -183,6 +187,16 @@ class ObstacleTime:
     def add(self, arm: int, times: np.ndarray, configs: np.ndarray) -> None:
         """Add arm ``arm`` moving along breakpoints ``times`` (k,) s, ``configs`` (k, 2) deg."""
         self.add_sampled(arm, *self.sample(arm, times, configs))
+
+    def add_until(self, arm: int, q: np.ndarray, until_s: float) -> None:
+        """Add arm ``arm`` standing at pose ``q`` (2,) deg up to ``until_s`` s and absent
+        after it (an arm not yet planned that is expected to have left by then)."""
+        caps, circ = self.sample(arm, np.zeros(1), np.asarray(q, dtype=np.float64)[None, :])
+        gone = np.arange(self.n_ticks) * self.dt_col > until_s + 1e-9
+        caps[gone] = FAR_MM
+        caps[gone, :, 4] = 0.0
+        circ[gone] = (FAR_MM, FAR_MM, 0.0)
+        self.add_sampled(arm, caps, circ)
 
     def add_sampled(self, arm: int, caps: np.ndarray, circ: np.ndarray) -> None:
         """Add arm ``arm`` already sampled by :meth:`sample`."""

@@ -114,3 +114,25 @@ def test_replanning_with_the_failed_arm_first(kind):
     assert rep.ok, (rep.min_gap_mm, rep.worst)
     with pytest.raises(SpecError, match="'replans'"):
         ProbePlanSettings(replans=-1)
+
+
+def test_make_way_window_solves_a_swept_start(kind):
+    """Arm 10's only routes sweep its tube across both the start and the goal of arm 9
+    (a pair from a chained set): no priority order solves it, a make-way window with a
+    retreat does, and the plan passes the independent 2D and 3D checks."""
+    from rfp_twin.planners.roadmap.probe import RECOVERING
+    from rfp_twin.validation.probe import check_probe_plan_3d
+
+    start, goal = kind.park(), kind.park()
+    start[9], start[10] = [54.1, 163.3], [62.3, 57.9]
+    goal[9], goal[10] = [68.6, 138.6], [19.7, 174.3]
+    plain = plan_probe_arms(kind, start, goal, ProbePlanSettings(replans=8))
+    assert not plain.success and plain.failed_arm in (9, 10)
+    plan = plan_probe_arms(kind, start, goal, ProbePlanSettings(**RECOVERING))
+    assert plan.success and plan.passes > plain.passes and plan.max_start_stop <= 1
+    assert plan.makespan_s <= 120.0
+    rep = check_probe_plan(kind.spec, plan.breakpoints(), dt_s=0.02, max_start_stop=1)
+    assert rep.ok, (rep.min_gap_mm, rep.worst)
+    assert check_probe_plan_3d(kind.spec, plan.breakpoints(), dt_s=0.1).ok
+    with pytest.raises(SpecError, match="'windows_s'"):
+        ProbePlanSettings(windows_s=(0.0,))

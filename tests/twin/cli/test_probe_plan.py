@@ -39,14 +39,18 @@ def test_roadmap_plans_the_typical_scenario(tmp_path):
     assert plan["0"]["theta1"][0] == [180.0, 0.0]             # park, at t = 0
 
 
-def test_export_reloads_in_mujoco(tmp_path):
+@pytest.mark.parametrize("layout, n_arms", [([], 12), (["--layout", "miradas-6"], 6)])
+def test_export_reloads_in_mujoco(tmp_path, layout, n_arms):
     import mujoco
 
-    r = CliRunner().invoke(app, ["model", "export", "--preset", "miradas-probe", "--layout",
-                                 "miradas-6", "--out", str(tmp_path / "m")])
+    r = CliRunner().invoke(app, ["model", "export", "--preset", "miradas-probe", *layout,
+                                 "--out", str(tmp_path / "m")])
     assert r.exit_code == 0, r.output
     m = mujoco.MjModel.from_xml_path(str(tmp_path / "m" / "rfp-twin.xml"))
-    assert (m.neq, m.nu) == (6, 12)
+    assert (m.neq, m.nu) == (n_arms, 2 * n_arms)           # one loop, two motors per arm
+    d = mujoco.MjData(m)
+    mujoco.mj_step(m, d)
+    assert d.ncon == 0
 
 
 @pytest.mark.parametrize("old, new, words", [
