@@ -5,10 +5,11 @@ Run from the repository root::
 
     .venv/bin/python benchmarks/bench_assign.py [--only exact|large] [--seeds 1 2 3]
         [--densities 50 100 200 300 1000] [--levels 1 3] [--time-limit 10]
-        [--solvers cpsat highs]
+        [--solvers cpsat highs] [--parking fold|clear]
         [--large-layout raft:204] [--large-density 20] [--large-preset raft-6p2]
         [--large-solver greedy] [--loop-seeds 1 2 ...]
-        [--loop-densities 100] [--md-out FILE]
+        [--loop-densities 100] [--loop-unit deg2|robot] [--loop-parking fold clear]
+        [--md-out FILE]
 
 ``exact``: the calibrated APO instrument (500 robots, ``sdss-v-production``, 2.0 mm, the
 stepwise planners' margin at 0.1 deg), uniform mock catalogues of BOSS targets at each
@@ -28,9 +29,11 @@ robot's best candidate, capped by the reachable targets), gap, seconds and peak 
 ``loop``: ``rfp-twin plan --catalogue`` in-process (:func:`rfp_twin.twin.plannable.plan_catalogue`,
 greedy planner with the deadlock search, post-processing, 2D check) on the calibrated APO
 and LCO instruments (``sdss-v-production``, 2.0 mm), one uniform BOSS mock per seed at
-each ``--loop-densities`` (targets/deg^2 with each telescope's plate scale and field):
-rounds and targets lost per round, assigned and kept targets, the firmware-ready fold,
-the 2D check and the wall seconds.
+each ``--loop-densities`` (targets/deg^2 with each telescope's plate scale and field; with
+``--loop-unit robot`` targets per robot, the yield study's mock of any fiber), per
+``--loop-parking`` mode: rounds and targets lost per round, assigned and kept targets,
+robots parked off the fold (and those of them the plan did not bring there), the
+firmware-ready fold, the 2D check and the wall seconds.
 
 ``compare``: on the same catalogues (``--loop-seeds``, ``--loop-densities``), the rule of the
 field systems (assignment checking final poses only, at the collision rule without the
@@ -86,7 +89,8 @@ def run_exact(args) -> list[str]:
                 for solver in args.solvers:
                     a, dt = timed(assign, geom, cat,
                                   AssignSettings(solver=solver, margin_mm=margin,
-                                                 time_limit_s=args.time_limit))
+                                                 time_limit_s=args.time_limit,
+                                                 parking=args.parking))
                     st = a.stats
                     g = st["greedy_objective"]
                     heur = (f"{g:g} ({100 * (a.objective - g) / a.objective:.2f}, "
@@ -126,7 +130,7 @@ def run_large(args) -> list[str]:
                 warm = False
             a, dt = timed(assign, geom, cat,
                           AssignSettings(solver=args.large_solver, margin_mm=margin,
-                                         time_limit_s=args.time_limit))
+                                         time_limit_s=args.time_limit, parking=args.parking))
             rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
             add_row(lines, spec.name, args.large_layout, geom.n_robots,
                     f"{args.large_density:g}", levels, seed, args.large_solver, cat.n_targets,
@@ -137,27 +141,41 @@ def run_large(args) -> list[str]:
 
 def run_loop(args) -> list[str]:
     """``rfp-twin plan --catalogue`` in-process: assign -> plan -> forbid -> again, per
-    instrument and seed; what the plan kept, the rounds, the fold and the 2D check."""
+    instrument, seed and parking mode; what the plan kept, the rounds, the parking poses
+    off the fold, the fold and the 2D check."""
     from rfp_twin.planners.assignment import AssignSettings as Settings
+    from rfp_twin.twin.catalogue_source import load_catalogue
     from rfp_twin.twin.pipeline import Reconfiguration
-    from rfp_twin.twin.plannable import plan_catalogue
+    from rfp_twin.twin.plannable import REACHED, plan_catalogue
 
-    lines = ["| instrument | density /deg^2 | seed | targets | rounds (lost per round) | "
-             "assigned | kept | lost | science completeness % | fold s (firmware-ready) | "
-             "2D check | s |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| instrument | density | seed | parking | targets | rounds (lost per round) | "
+             "assigned | kept | lost | science completeness % | parked off the fold (not "
+             "reached) | fold s (firmware-ready) | 2D check | s |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for inst, tel in (("sdss-v-apo", "apo"), ("sdss-v-lco", "lco")):
         rc = Reconfiguration.from_names("sdss-v-production", inst, buffer_mm=2.0)
+        fold = np.asarray(rc.spec.fold_deg)
         for density in args.loop_densities:
             for seed in args.loop_seeds:
-                cat = field_catalogue(seed, density, 1, tel)
-                run, dt = timed(plan_catalogue, rc, cat, Settings(), seed=seed)
-                s = run.summary(cat)
-                lost = ", ".join(str(r["lost"]) for r in run.rounds)
-                add_row(lines, inst, f"{density:g}", seed, cat.n_targets,
-                        f"{len(run.rounds)} ({lost})", s["assigned"], s["kept"], s["lost"],
-                        f"{100 * s['science_completeness']:.1f}",
-                        f"{run.outcome.trajectory.duration:.2f}",
-                        "clear" if run.outcome.check.ok else "COLLISION", f"{dt:.2f}")
+                if args.loop_unit == "robot":
+                    cat = load_catalogue(f"mock:uniform:{density:g}/robot", rc.geom,
+                                         telescope=TELESCOPES[tel], field_centre=None, seed=seed)
+                else:
+                    cat = field_catalogue(seed, density, 1, tel)
+                for parking in args.loop_parking:
+                    run, dt = timed(plan_catalogue, rc, cat, Settings(parking=parking),
+                                    seed=seed)
+                    s = run.summary(cat)
+                    a = run.assignment
+                    off = (a.target < 0) & np.any(np.abs(a.angles - fold) > 1e-6, axis=1)
+                    missed = off & (np.asarray(run.outcome.plan.status) != REACHED)
+                    lost = ", ".join(str(r["lost"]) for r in run.rounds)
+                    add_row(lines, inst, f"{density:g}/{args.loop_unit}", seed, parking,
+                            cat.n_targets, f"{len(run.rounds)} ({lost})", s["assigned"],
+                            s["kept"], s["lost"], f"{100 * s['science_completeness']:.1f}",
+                            f"{int(off.sum())} ({int(missed.sum())})",
+                            f"{run.outcome.trajectory.duration:.2f}",
+                            "clear" if run.outcome.check.ok else "COLLISION", f"{dt:.2f}")
     return lines
 
 
@@ -203,6 +221,10 @@ def main() -> None:
     p.add_argument("--only", choices=("exact", "large", "loop", "compare"), default=None)
     p.add_argument("--loop-seeds", type=int, nargs="+", default=list(range(1, 21)))
     p.add_argument("--loop-densities", type=float, nargs="+", default=[100.0])
+    p.add_argument("--parking", choices=("fold", "clear"), default="fold",
+                   help="parking mode of the exact and large runs")
+    p.add_argument("--loop-unit", choices=("deg2", "robot"), default="deg2")
+    p.add_argument("--loop-parking", nargs="+", choices=("fold", "clear"), default=["fold"])
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     p.add_argument("--densities", type=float, nargs="+", default=[50, 100, 200, 300, 1000])
     p.add_argument("--levels", type=int, nargs="+", default=[1, 3])

@@ -12,7 +12,8 @@
   :data:`CALIBRATION_PRIORITY`: taken for the quotas and where no science target
   competes), ``levels=K``
   (science priorities drawn from 1..K), ``fiber=boss|apogee|any`` (science targets;
-  calibration targets accept any fiber), ``children=C`` and ``sigma=MM`` (clusters).
+  calibration targets accept any fiber), ``children=C`` and ``sigma=MM`` (clusters),
+  ``exposures=N`` (exposures each science target needs: passes of one field).
 
 The mock field is the telescope's field (a disc of its field radius about the plane's
 origin) or, without a telescope, the disc about the robot bases' centre that covers
@@ -20,19 +21,21 @@ every patrol area.
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from rfp_twin.models.catalogue import (TELESCOPES, Catalogue, Disc, Telescope, density_per_mm2,
                                        mock_catalogue, read_catalogue)
+from rfp_twin.models.catalogue.catalogue import MAX_EXPOSURES
 from rfp_twin.models.errors import CatalogueError
 
 MOCK_PREFIX = "mock:"
 #: Priority of mock sky and standard targets: far below a science target's (>= 1), above
 #: parking (0).
 CALIBRATION_PRIORITY = 0.001
-MOCK_KEYS = ("sky", "standard", "levels", "fiber", "children", "sigma")
+MOCK_KEYS = ("sky", "standard", "levels", "fiber", "children", "sigma", "exposures")
 TELESCOPE_CHOICES = ("auto", "apo", "lco", "none")
 
 
@@ -89,7 +92,8 @@ def parse_mock(text: str) -> tuple[str, float, str | None, dict[str, str]]:
     head, *extras = body.split(",")
     parts = head.split(":")
     allowed = ("allowed: mock:uniform|clustered:DENSITY[/deg2|/patrol|/robot][,sky=D]"
-               "[,standard=D][,levels=K][,fiber=boss|apogee|any][,children=C][,sigma=MM]")
+               "[,standard=D][,levels=K][,fiber=boss|apogee|any][,children=C][,sigma=MM]"
+               "[,exposures=N]")
     if len(parts) != 2:
         raise CatalogueError(f"--catalogue {text!r}; {allowed}")
     process, dens = parts
@@ -134,9 +138,14 @@ def mock_from_text(text: str, geom, telescope: Telescope | None,
         raise CatalogueError(f"--catalogue {text!r}: levels={keys['levels']!r}; allowed: an "
                              "integer in [1, 1000]")
     sigma = number("sigma", 2.0 * geom.spec.reach_mm)
-    parts = [mock_catalogue(rng, disc, per_mm2(density), process=process, kind="science",
-                            fiber=keys.get("fiber", "boss"), priority_levels=int(levels),
-                            children=number("children", 10.0), sigma_mm=sigma, source=text)]
+    exposures = number("exposures", 1)
+    if exposures != int(exposures) or not 1 <= exposures <= MAX_EXPOSURES:
+        raise CatalogueError(f"--catalogue {text!r}: exposures={keys['exposures']!r}; allowed: "
+                             f"an integer in [1, {MAX_EXPOSURES}]")
+    science = mock_catalogue(rng, disc, per_mm2(density), process=process, kind="science",
+                             fiber=keys.get("fiber", "boss"), priority_levels=int(levels),
+                             children=number("children", 10.0), sigma_mm=sigma, source=text)
+    parts = [replace(science, exposures=np.full(science.n_targets, int(exposures)))]
     for kind in ("sky", "standard"):
         if kind in keys:
             d = number(kind, 0.0)

@@ -35,7 +35,8 @@ class PassOptions:
     """How many times the field is observed (``plan --catalogue``)."""
 
     passes: int = option(1, "--catalogue: observe the field this many times; each pass "
-                         "assigns the science targets not yet observed and its motion starts "
+                         "assigns the science targets that still need an exposure (catalogue "
+                         "column exposures, default 1) and its motion starts "
                          "at the last pass's poses (a run folder per pass, passes.csv, "
                          "observed.csv)", lo=1, hi=MAX_PASSES)
     direct_stuck: float = option(DIRECT_STUCK_SHARE, "--passes: the direct motion from the "

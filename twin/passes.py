@@ -1,9 +1,10 @@
 """Passes: the same field observed several times, each pass planned from the last one's poses.
 
 :func:`observe_passes` runs the plannable loop (:func:`rfp_twin.twin.plannable.plan_catalogue`)
-once per pass on what is left of the catalogue: science targets observed in an earlier
-pass are removed (their priorities stay as they are on the others), calibration targets
-(sky, standards) stay, since every exposure needs its own. Each pass's assignment is one
+once per pass on what is left of the catalogue: science targets that had the exposures
+they need (``Catalogue.exposures``, 1 unless the catalogue says more) are removed, the
+others stay with their priorities; calibration targets (sky, standards) stay, since every
+exposure needs its own. A target is complete once it had its exposures. Each pass's assignment is one
 the planner keeps whole, checked from the fold, as in a single pointing.
 
 The reconfiguration between two passes starts where the robots stand (the previous
@@ -87,12 +88,16 @@ class Pass:
     seconds: float
     direct_tried: dict = field(default_factory=dict)
 
-    def row(self, catalogue: Catalogue, seen_before: np.ndarray) -> dict:
-        """The pass's figures: assigned, kept, rounds, completeness of the pass and
-        cumulative (science, by priority), the motion's firmware-ready time."""
+    def row(self, catalogue: Catalogue, count_before: np.ndarray) -> dict:
+        """The pass's figures: assigned, kept, rounds, completeness of the pass (science
+        targets it completed) and cumulative (science, by priority), the motion's
+        firmware-ready time. ``count_before`` (t,) int: exposures each catalogue row had
+        before the pass."""
         a = self.run.assignment
-        now = observed_rows(catalogue, self.observed)
-        cum = completeness(catalogue, seen_before | now)
+        after = count_before + observed_rows(catalogue, self.observed)
+        done_before = count_before >= catalogue.exposures
+        done_after = after >= catalogue.exposures
+        cum = completeness(catalogue, done_after)
         traj = self.motion.trajectory
         return {"pass": self.index, "start": "fold" if self.index == 1 else
                 f"pass {self.index - 1} poses", "motion": self.mode,
@@ -101,7 +106,9 @@ class Pass:
                 "observed_science": int(self.observed.size), "lost": self.run.n_lost,
                 "rounds": len(self.run.rounds),
                 "lost_per_round": [r["lost"] for r in self.run.rounds],
-                "completeness": completeness(catalogue, now)["science"],
+                "completed_science": int(np.count_nonzero(done_after & ~done_before
+                                                          & (catalogue.kind == SCIENCE))),
+                "completeness": completeness(catalogue, done_after & ~done_before)["science"],
                 "cumulative": cum["science"],
                 "cumulative_by_priority": {p: v["completeness"]
                                            for p, v in cum["by_priority"].items()},
@@ -176,12 +183,13 @@ def observe_passes(rc, catalogue: Catalogue, settings: AssignSettings, passes: i
     if not rc.options.stepwise:
         raise RfpError(f"--passes with --algorithm {rc.options.algorithm}; allowed: a stepwise "
                        "planner (greedy, markov, mdp2, roadmap)")
-    seen = np.zeros(catalogue.n_targets, dtype=bool)
+    count = np.zeros(catalogue.n_targets, dtype=np.int64)     # exposures taken so far
     keep = catalogue.kind != SCIENCE
     out: list[Pass] = []
     for k in range(1, passes + 1):
         t0 = time.perf_counter()
-        left = catalogue.subset(keep | ((catalogue.kind == SCIENCE) & ~seen))
+        left = catalogue.subset(keep | ((catalogue.kind == SCIENCE)
+                                        & (count < catalogue.exposures)))
         available = int(np.count_nonzero(left.kind == SCIENCE))
         if on_pass is not None:
             on_pass(k, f"pass {k}: assigning {available} science targets left")
@@ -202,7 +210,7 @@ def observe_passes(rc, catalogue: Catalogue, settings: AssignSettings, passes: i
             motion, mode, tried = reconfigure_between(rc, prev, run.outcome, seed=seed + k - 1,
                                                       direct=direct, direct_stuck=direct_stuck)
             via = prev.trajectory.duration + run.outcome.trajectory.duration
-        seen |= observed_rows(catalogue, ids)
+        count += observed_rows(catalogue, ids)
         out.append(Pass(k, run, left, motion, mode, via, available, ids, time.perf_counter() - t0,
                         tried))
     return out
@@ -224,14 +232,15 @@ def passes_summary(catalogue: Catalogue, done: list[Pass],
     """Every pass's row (:meth:`Pass.row`) and the cumulative completeness by priority;
     with ``reachable`` ((t,) bool, :func:`within_reach`) each row's ``cumulative_within_reach``
     and the final completeness of the targets within reach too."""
-    seen = np.zeros(catalogue.n_targets, dtype=bool)
+    count = np.zeros(catalogue.n_targets, dtype=np.int64)
     rows = []
     for p in done:
-        rows.append(p.row(catalogue, seen))
-        seen |= observed_rows(catalogue, p.observed)
+        rows.append(p.row(catalogue, count))
+        count = count + observed_rows(catalogue, p.observed)
         if reachable is not None:
-            rows[-1]["cumulative_within_reach"] = completeness(catalogue, seen,
-                                                               reachable)["within_reach"]
+            rows[-1]["cumulative_within_reach"] = completeness(
+                catalogue, count >= catalogue.exposures, reachable)["within_reach"]
+    seen = count >= catalogue.exposures
     return {"catalogue": catalogue.source, "n_targets": catalogue.n_targets,
             "counts": catalogue.counts(), "n_passes": len(done), "passes": rows,
             "completeness": completeness(catalogue, seen, reachable)}

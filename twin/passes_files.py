@@ -6,7 +6,8 @@ summary.json   the command, the catalogue, one row per pass (assigned, kept, rou
                completeness of the pass and cumulative by priority, the reconfiguration's
                firmware-ready time, how it was made, the 2D check) and the final completeness
 passes.csv     the same rows, one line per pass
-observed.csv   target_id, pass, robot_id: each science target observed, once
+observed.csv   target_id, pass, robot_id: each exposure of a science target (one row per
+               target and pass; a target needing n exposures has up to n rows)
 passN/         a run folder per pass (:mod:`rfp_twin.twin.run_dir`): its
                ``trajectories.json`` is the pass's reconfiguration, from the fold (pass 1) or
                from the previous pass's poses; ``trajectories_to_fold.json`` the same motion
@@ -36,9 +37,9 @@ PASSES_CSV = "passes.csv"
 OBSERVED_CSV = "observed.csv"
 #: passes.csv columns (keys of :meth:`rfp_twin.twin.passes.Pass.row`).
 COLUMNS = ("pass", "start", "motion", "available_science", "assigned", "kept",
-           "observed_science", "lost", "rounds", "completeness", "cumulative",
-           "cumulative_within_reach",
-           "reconfiguration_s", "via_fold_s", "check2d_ok")
+           "observed_science", "completed_science", "lost", "rounds", "completeness",
+           "cumulative", "cumulative_within_reach", "reconfiguration_s", "via_fold_s",
+           "check2d_ok")
 
 
 def pass_folder(k: int) -> str:

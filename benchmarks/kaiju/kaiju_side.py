@@ -24,6 +24,18 @@ Commands (each writes one JSON file):
     Times kaiju's path generation from the poses of a CSV (``robot_id, alpha, beta,
     dest_alpha, dest_beta``, encoder deg) on the calibrated grid: ``pathGenGreedy`` or
     ``pathGenMDP2(greed, phobia, tries)``; reports seconds, steps, tries, the robots home.
+``production --calib DIR --poses CSV --out JSON --traj-out FILE [--seed S] ...``
+    The trajectory SDSS-V's controller (jaeger) would send for these targets (CSV
+    ``robot_id, alpha, beta``, encoder deg), in its order: the grid (step 0.1 deg, RDP
+    epsilon 2 x step) with every robot at its target and the lattice position (10, 170) as
+    destination; robot-by-robot decollision (``decollideRobot`` on each robot still
+    collided); ``pathGenMDP2(greed, phobia, False, tries)``; on a deadlock, up to
+    ``--retries`` times, one deadlocked robot drawn at random is given a random pose
+    (``setXYUniform``, decollided if needed) and the grid is planned again from the saved
+    poses; then ``getPathPair(speed, smoothPoints, collisionShrink, pathDelay)``. Writes
+    the ``fromDestination`` paths (lattice -> targets, encoder deg, times with the path
+    delay) to ``--traj-out`` and reports the robots moved off their targets, attempts,
+    steps and the seconds (wall and CPU) of path generation and of ``getPathPair``.
 
 Segment distances are computed here with numpy (closest points of two 3D segments,
 clamped parameters), not with kaiju's own distance code.
@@ -45,8 +57,9 @@ import pandas as pd
 FW_C0, FW_C1 = 41.2853, -1.3085
 
 
-def load_grid(calib: Path, step_deg: float = 0.1, seed: int = 0):
-    """kaiju's RobotGrid built from a calibration folder's three CSV files."""
+def load_grid(calib: Path, step_deg: float = 0.1, seed: int = 0, epsilon: float | None = None):
+    """kaiju's RobotGrid built from a calibration folder's three CSV files (``epsilon``:
+    the RDP tolerance of its ``getPathPair``, deg; None: kaiju's default)."""
     from kaiju.robotGrid import RobotGrid
 
     tables = [pd.read_csv(calib / f) for f in ("positionerTable.csv", "wokCoords.csv",
@@ -56,7 +69,7 @@ def load_grid(calib: Path, step_deg: float = 0.1, seed: int = 0):
         def _load_grid(self):
             self._load_from_tables(*tables)
 
-    return FolderGrid(stepSize=step_deg, seed=seed)
+    return FolderGrid(stepSize=step_deg, seed=seed, epsilon=epsilon)
 
 
 def segment_distance_3d(p0, p1, q0, q1):
@@ -232,6 +245,105 @@ def plan(args) -> dict:
             "fiducial_watch_ids": sorted(rid for rid in ids if grid.robotDict[rid].fiducialWatch)}
 
 
+class _Quiet:
+    """Context: the process's stdout (fd 1) to /dev/null (kaiju prints per MDP2 try)."""
+
+    def __enter__(self):
+        sys.stdout.flush()
+        self.null = open(os.devnull, "w")
+        self.saved = os.dup(1)
+        os.dup2(self.null.fileno(), 1)
+        return self
+
+    def __exit__(self, *exc):
+        os.dup2(self.saved, 1)
+        os.close(self.saved)
+        self.null.close()
+
+
+def production(args) -> dict:
+    calib = Path(args.calib)
+    step = args.step
+    rng = np.random.default_rng(args.seed)
+
+    def grid_at(state: dict):
+        """A fresh grid with every robot at ``state[rid]`` (encoder deg), lattice as
+        destination (jaeger rebuilds its grid from a dump before each retry)."""
+        g = load_grid(calib, step, args.seed, epsilon=args.epsilon_factor * step)
+        g.setCollisionBuffer(args.buffer)
+        for rid, (a, b) in state.items():
+            r = g.robotDict[rid]
+            r.setAlphaBeta(a, b)
+            r.setDestinationAlphaBeta(args.lattice_alpha, args.lattice_beta)
+        return g
+
+    poses = pd.read_csv(args.poses)
+    asked = {int(r.robot_id): (float(r.alpha), float(r.beta)) for r in poses.itertuples()}
+    clock = time.perf_counter()
+    grid = grid_at(asked)
+    build_s = time.perf_counter() - clock
+    # jaeger's decollision: robot by robot, each robot still collided
+    decollided = []
+    for rid in grid.getCollidedRobotList():
+        if grid.isCollided(rid):
+            grid.decollideRobot(rid)
+            decollided.append(int(rid))
+    state = {rid: (grid.robotDict[rid].alpha, grid.robotDict[rid].beta) for rid in asked}
+    still = len(grid.getCollidedRobotList())
+    unlocked, attempts, gen_s, gen_cpu, steps_per_attempt, tries = [], 0, 0.0, 0.0, [], []
+    failed = None
+    while True:
+        attempts += 1
+        if attempts > 1:
+            grid = grid_at(state)
+        with _Quiet():
+            t0, c0 = time.perf_counter(), time.process_time()
+            grid.pathGenMDP2(args.greed, args.phobia, False, args.tries)
+            gen_s += time.perf_counter() - t0
+            gen_cpu += time.process_time() - c0
+        steps_per_attempt.append(int(grid.nSteps))
+        tries.append(min(int(grid.mdp2iter) + 1, args.tries))
+        if not grid.didFail:
+            break
+        deadlocks = [int(r) for r in grid.deadlockedRobots()]
+        if attempts > args.retries:
+            failed = f"{len(deadlocks)} deadlocked after {args.retries} retries"
+            break
+        move = int(rng.choice(deadlocks))
+        grid = grid_at(state)
+        grid.robotDict[move].setXYUniform()
+        if grid.isCollided(move):
+            grid.decollideRobot(move)
+            if grid.isCollided(move):
+                failed = f"robot {move} cannot be decollided"
+                break
+        state[move] = (grid.robotDict[move].alpha, grid.robotDict[move].beta)
+        if move not in unlocked:
+            unlocked.append(move)
+    out = {"calib": str(calib), "seed": args.seed, "buffer_mm": args.buffer, "step_deg": step,
+           "greed": args.greed, "phobia": args.phobia, "tries_max": args.tries,
+           "retries_max": args.retries, "grid_s": build_s, "decollided": decollided,
+           "collided_after_decollision": int(still), "unlocked": unlocked,
+           "attempts": attempts, "steps": steps_per_attempt, "tries": tries,
+           "pathgen_s": gen_s, "pathgen_cpu_s": gen_cpu, "failed": failed,
+           "planned_poses": {str(r): list(v) for r, v in state.items()}}
+    if failed is None:
+        with _Quiet():
+            t0, c0 = time.perf_counter(), time.process_time()
+            _, from_dest = grid.getPathPair(speed=args.speed, smoothPoints=args.smooth_points,
+                                            collisionShrink=args.collision_shrink,
+                                            pathDelay=args.path_delay)
+            out["pathpair_s"] = time.perf_counter() - t0
+            out["pathpair_cpu_s"] = time.process_time() - c0
+        traj = {str(rid): {ax: [[float(a), float(t)] for a, t in path[ax]]
+                           for ax in ("alpha", "beta")} for rid, path in from_dest.items()}
+        tmp = Path(args.traj_out + ".tmp")
+        tmp.write_text(json.dumps(traj))
+        tmp.replace(args.traj_out)
+        out["traj"] = args.traj_out
+    return out
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -252,8 +364,27 @@ def main(argv=None) -> None:
     p.add_argument("--greed", type=float, default=0.7)
     p.add_argument("--phobia", type=float, default=0.6)
     p.add_argument("--tries", type=int, default=5)
+    q = sub.add_parser("production")
+    q.add_argument("--calib", required=True)
+    q.add_argument("--poses", required=True)
+    q.add_argument("--out", required=True)
+    q.add_argument("--traj-out", required=True)
+    q.add_argument("--seed", type=int, default=0)
+    q.add_argument("--buffer", type=float, default=2.0)
+    q.add_argument("--step", type=float, default=0.1)
+    q.add_argument("--epsilon-factor", type=float, default=2.0)
+    q.add_argument("--greed", type=float, default=0.7)
+    q.add_argument("--phobia", type=float, default=0.6)
+    q.add_argument("--tries", type=int, default=5)
+    q.add_argument("--retries", type=int, default=5)
+    q.add_argument("--lattice-alpha", type=float, default=10.0)
+    q.add_argument("--lattice-beta", type=float, default=170.0)
+    q.add_argument("--speed", type=float, default=2.0)
+    q.add_argument("--smooth-points", type=int, default=21)
+    q.add_argument("--collision-shrink", type=float, default=0.08)
+    q.add_argument("--path-delay", type=float, default=1.0)
     args = ap.parse_args(argv)
-    result = replay(args) if args.cmd == "replay" else plan(args)
+    result = {"replay": replay, "plan": plan, "production": production}[args.cmd](args)
     tmp = Path(args.out + ".tmp")
     tmp.write_text(json.dumps(result))
     tmp.replace(args.out)

@@ -5,8 +5,10 @@ A target has an integer id, a position ``(x_mm, y_mm)`` in the layout's planning
 its wok frame turned by +90 deg, :func:`rfp_twin.models.instrument.wok_to_plane`), a
 priority (a weight >= 0: an assigner maximises the sum of the priorities of the targets
 it observes, so a larger priority is more valuable), a kind (``science``, ``sky``,
-``standard``) and the fiber it needs (``boss``, ``apogee``, ``any``). Kinds and fibers are
-stored as small integer codes (indices into :data:`KINDS` and :data:`FIBERS`).
+``standard``) and the fiber it needs (``boss``, ``apogee``, ``any``), and how many
+exposures it needs to be complete (1 unless the catalogue says more: faint targets
+observed in several passes). Kinds and fibers are stored as small integer codes (indices
+into :data:`KINDS` and :data:`FIBERS`).
 """
 from __future__ import annotations
 
@@ -19,6 +21,8 @@ from rfp_twin.models.errors import CatalogueError
 #: Target kinds, in code order (``Catalogue.kind`` holds indices into this tuple).
 KINDS = ("science", "sky", "standard")
 SCIENCE, SKY, STANDARD = 0, 1, 2
+#: Most exposures one target may ask for.
+MAX_EXPOSURES = 1000
 #: Fibers a target may ask for, in code order (``Catalogue.fiber``).
 TARGET_FIBERS = ("boss", "apogee", "any")
 BOSS, APOGEE, ANY = 0, 1, 2
@@ -36,6 +40,8 @@ class Catalogue:
     kind : (t,) int8 codes into :data:`KINDS`
     fiber : (t,) int8 codes into :data:`TARGET_FIBERS`
     source : where the catalogue came from (a file, ``mock:...``), for messages
+    exposures : (t,) int64 in [1, MAX_EXPOSURES], exposures each target needs to be
+        complete [default: 1 each]
     """
 
     ids: np.ndarray
@@ -44,6 +50,7 @@ class Catalogue:
     kind: np.ndarray
     fiber: np.ndarray
     source: str = "<memory>"
+    exposures: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         ids = np.asarray(self.ids, dtype=np.int64).reshape(-1)
@@ -52,8 +59,17 @@ class Catalogue:
         pr = np.asarray(self.priority, dtype=np.float64).reshape(t)
         kind = np.asarray(self.kind, dtype=np.int8).reshape(t)
         fiber = np.asarray(self.fiber, dtype=np.int8).reshape(t)
+        exp = (np.ones(t, dtype=np.int64) if self.exposures is None
+               else np.asarray(self.exposures).reshape(t))
+        bad = np.flatnonzero(~((exp >= 1) & (exp <= MAX_EXPOSURES) & (exp == np.round(exp))))
+        if bad.size:
+            r = int(bad[0])
+            raise CatalogueError(f"{self.source}: row {r}: target {int(ids[r])}: field "
+                                 f"'exposures' = {exp[r]!r}; allowed: an integer in "
+                                 f"[1, {MAX_EXPOSURES}]")
+        exp = exp.astype(np.int64)
         for name, arr in (("ids", ids), ("xy", xy), ("priority", pr), ("kind", kind),
-                          ("fiber", fiber)):
+                          ("fiber", fiber), ("exposures", exp)):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
         self.check()
@@ -102,7 +118,7 @@ class Catalogue:
     def subset(self, mask: np.ndarray) -> "Catalogue":
         """The targets where ``mask`` (t,) bool (or an index array) selects them."""
         return Catalogue(self.ids[mask], self.xy[mask], self.priority[mask], self.kind[mask],
-                         self.fiber[mask], self.source)
+                         self.fiber[mask], self.source, self.exposures[mask])
 
     @classmethod
     def concat(cls, parts: list["Catalogue"], source: str | None = None) -> "Catalogue":
@@ -112,7 +128,8 @@ class Catalogue:
                    np.concatenate([p.priority for p in parts]),
                    np.concatenate([p.kind for p in parts]),
                    np.concatenate([p.fiber for p in parts]),
-                   source or " + ".join(p.source for p in parts))
+                   source or " + ".join(p.source for p in parts),
+                   np.concatenate([p.exposures for p in parts]))
 
 
 def code_of(value: str, names: tuple[str, ...]) -> int:

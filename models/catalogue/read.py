@@ -17,6 +17,9 @@ position, one of
     ``science``, ``sky`` or ``standard``
 ``fiber`` (optional, default ``any``)
     ``boss``, ``apogee`` or ``any``
+``exposures`` (optional, default 1)
+    an integer >= 1: exposures the target needs (passes of one field,
+    ``rfp-twin plan --passes``)
 
 Rows are named as in the file: CSV by line (the header is line 1), Parquet by row (the
 first data row is row 1).
@@ -29,7 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rfp_twin.models.catalogue.catalogue import KINDS, TARGET_FIBERS, Catalogue, code_of
+from rfp_twin.models.catalogue.catalogue import (KINDS, MAX_EXPOSURES, TARGET_FIBERS,
+                                                  Catalogue, code_of)
 from rfp_twin.models.catalogue.sky import check_field_centre, sky_to_focal
 from rfp_twin.models.errors import CatalogueError
 
@@ -85,7 +89,8 @@ def read_catalogue(path: str | Path, *, field_centre: tuple[float, float] | None
     pos = next((p for p in POSITION_COLUMNS if set(p) <= set(cols)), None)
     if "id" not in cols or pos is None:
         raise CatalogueError(f"{path}: columns {sorted(cols)}; allowed: id with x_mm,y_mm or "
-                             "x_wok_mm,y_wok_mm or ra_deg,dec_deg (optional priority, kind, fiber)")
+                             "x_wok_mm,y_wok_mm or ra_deg,dec_deg (optional priority, kind, fiber, "
+                             "exposures)")
 
     def where(r: int) -> str:
         return f"{path}:{r + first}" if word == "line" else f"{path}: row {r + first}"
@@ -142,7 +147,15 @@ def read_catalogue(path: str | Path, *, field_centre: tuple[float, float] | None
                              "a finite number >= 0 (larger: more valuable)")
     kind = _codes(cols.get("kind"), n, "kind", KINDS, "science", where)
     fiber = _codes(cols.get("fiber"), n, "fiber", TARGET_FIBERS, "any", where)
-    return Catalogue(ids, xy, priority, kind, fiber, source=str(path))
+    exposures = numbers("exposures", 1.0)
+    bad = np.flatnonzero((exposures < 1) | (exposures > MAX_EXPOSURES)
+                         | (exposures != np.round(exposures)))
+    if bad.size:
+        r = int(bad[0])
+        raise CatalogueError(f"{where(r)}: field 'exposures' = {cols['exposures'][r]!r}; "
+                             f"allowed: an integer in [1, {MAX_EXPOSURES}]")
+    return Catalogue(ids, xy, priority, kind, fiber, source=str(path),
+                     exposures=exposures.astype(np.int64))
 
 
 def _codes(raw, n: int, name: str, names: tuple[str, ...], default: str, where) -> np.ndarray:

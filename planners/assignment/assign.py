@@ -4,7 +4,10 @@
 no two final poses collide (robot pairs and obstacles, at each robot's buffer plus a
 margin), with at least a given number of sky and standard fibers in each region of the
 plane, maximising the sum of the priorities of the targets taken. Robots left without a
-target get their parking pose (the fold), which the planner treats as a target.
+target get a parking pose, which the planner treats as a target: the fold, or with
+``AssignSettings.parking = "clear"`` the fold or one of its alpha turns, chosen in the
+same program (a parking pose collides like any other; the fold is preferred by a small
+penalty on the others, :mod:`rfp_twin.planners.assignment.candidates`).
 
 Methods (``AssignSettings.solver``):
 
@@ -30,7 +33,9 @@ import numpy as np
 
 from rfp_twin.models.catalogue import KINDS, SKY, STANDARD, Catalogue
 from rfp_twin.models.errors import AssignmentError
-from rfp_twin.planners.assignment.candidates import ARMS, Candidates, build_candidates, subset
+from rfp_twin.planners.assignment.candidates import (ARMS, DEFAULT_PARKING, PARKING_MODES,
+                                                     PARKING_PENALTY, Candidates,
+                                                     build_candidates, subset)
 from rfp_twin.planners.assignment.conflicts import (conflict_cliques, conflict_degrees,
                                                     conflict_pairs, neighbour_pairs,
                                                     symmetric_csr)
@@ -90,6 +95,7 @@ class AssignSettings:
     fixed : ((robot id, alpha, beta), ...) robots that do not move (offline): they keep
         that pose, which the others' poses must clear
     max_sweeps : local-improvement sweeps of the heuristic
+    parking : fold | clear: the parking poses of robots without a target (module docstring)
     """
 
     solver: str = "auto"
@@ -101,8 +107,12 @@ class AssignSettings:
     forbidden: frozenset = frozenset()
     fixed: tuple = ()
     max_sweeps: int = 20
+    parking: str = DEFAULT_PARKING
 
     def __post_init__(self) -> None:
+        if self.parking not in PARKING_MODES:
+            raise AssignmentError(f"--parking {self.parking!r}; allowed: "
+                                  f"{', '.join(PARKING_MODES)}")
         if self.solver not in METHODS:
             raise AssignmentError(f"--solver {self.solver!r}; allowed: {', '.join(METHODS)}")
         bad = [a for a in self.arms if a not in ARMS]
@@ -149,9 +159,11 @@ class Assignment:
         return int(np.count_nonzero(self.target >= 0))
 
     def counts(self) -> dict[str, int]:
-        """Robots per kind of pose, {science, sky, standard, parked}."""
+        """Robots per kind of pose, {science, sky, standard, parked, parked_off_fold} (the
+        last: parked robots at a clear parking pose, not the fold)."""
         out = {name: int(np.count_nonzero(self.kind == k)) for k, name in enumerate(KINDS)}
         out["parked"] = int(np.count_nonzero(self.target < 0))
+        out["parked_off_fold"] = int(self.stats.get("parked_off_fold", 0))
         return out
 
 
@@ -192,7 +204,8 @@ def _finish(geom, cat: Catalogue, cands: Candidates, chosen: np.ndarray, bound: 
     kind[on] = cat.kind[tgt[on]]
     ids = np.full(tgt.size, -1, dtype=np.int64)
     ids[on] = cat.ids[tgt[on]]
-    objective = float(cands.weight[chosen].sum())
+    objective = float(cands.weight[chosen][on].sum())     # parking penalties left out
+    stats["parked_off_fold"] = int(np.count_nonzero(~on & (chosen != cands.parking)))
     return Assignment(robot_ids=geom.robot_ids.copy(), target=tgt, target_ids=ids,
                       angles=cands.angles[chosen].copy(), arm=cands.arm[chosen].copy(),
                       slot=cands.slot[chosen].copy(), kind=kind, objective=objective,
@@ -225,7 +238,8 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
     t0 = time.perf_counter()
     cands = build_candidates(geom, catalogue, margin_mm=s.margin_mm, arms=s.arms,
                              forbidden=set(s.forbidden) if s.forbidden else None,
-                             fixed={int(r): (float(a), float(b)) for r, a, b in s.fixed})
+                             fixed={int(r): (float(a), float(b)) for r, a, b in s.fixed},
+                             parking=s.parking)
     n_real = int(np.count_nonzero(cands.target >= 0))
     if catalogue.n_targets and n_real == 0:
         raise AssignmentError(f"{catalogue.source}: none of its {catalogue.n_targets} targets is "
@@ -241,6 +255,8 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
                                   f"({members.size} candidate poses); allowed: a quota <= the "
                                   "best count reachable")
     allowed = np.ones(cands.n, dtype=bool)
+    gain = np.maximum(cands.weight, 0.0)        # the targets' weights (no parking penalty)
+    slack = PARKING_PENALTY if s.parking == "clear" else 0.0
     degree = conflict_degrees(cands, pairs, geom.buffer, s.margin_mm)
     greedy_chosen, sweeps = greedy_assign(cands, catalogue.n_targets, nbr_ptr, nbr_idx,
                                           geom.buffer, s.margin_mm, allowed=allowed,
@@ -250,7 +266,7 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
     t_greedy = time.perf_counter()
     stats = {"n_robots": geom.n_robots, "n_targets": catalogue.n_targets,
              "n_candidates": n_real, "n_neighbour_pairs": int(pairs.shape[0]),
-             "greedy_objective": float(cands.weight[greedy_chosen].sum()),
+             "greedy_objective": float(gain[greedy_chosen].sum()),
              "greedy_sweeps": sweeps,
              "seconds": {"candidates": t_cand - t0, "greedy": t_greedy - t_cand}}
     method = DEFAULT_EXACT if s.solver == "auto" else s.solver
@@ -296,7 +312,7 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
             continue
         robots = np.unique(problem.robot[sub.cands])
         easy = float(robot_best[robots].sum())
-        if not sub.has_quota and cands.weight[greedy_chosen[robots]].sum() >= easy:
+        if not sub.has_quota and gain[greedy_chosen[robots]].sum() >= easy:
             bound += easy       # the greedy poses give every robot its best weight: optimal
             continue
         n_solved += 1
@@ -321,7 +337,11 @@ def assign(geom, catalogue: Catalogue, settings: AssignSettings | None = None) -
             continue
         taken = sub.cands[sol.x]
         chosen[problem.robot[taken]] = sel[taken]
-        bound += sol.bound
+        got = float(gain[sel[taken]].sum())
+        # the solver's bound counts the parking penalties; a target-sum optimum is the
+        # solution's (penalties far below a priority), a stopped solve's bound gains them back
+        bound += (max(sol.bound, got) if sol.status == "optimal" else
+                  min(sol.bound + slack * sub.n_robots, easy))
         all_optimal &= sol.status == "optimal"
     stats["n_candidates_presolved"] = int(sel.size - geom.n_robots)
     t_solve = time.perf_counter()

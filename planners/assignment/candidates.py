@@ -5,8 +5,13 @@ the target with a fiber the target accepts (``boss`` -> the BOSS fiber, ``apogee
 APOGEE fiber, ``any`` -> either), on its right arm (beta link turned by [0, 180] deg from
 the alpha arm) or its left arm, inside its own travel range, and the pose keeps clear of
 every obstacle (fiducials, guide-camera edges) by the collision rule plus a margin. Each
-robot also has one parking candidate (the fold, weight 0): the pose of a robot left
-without a target, which collides like any other pose.
+robot also has a parking candidate (the fold, weight 0): the pose of a robot left
+without a target, which collides like any other pose. With ``parking="clear"`` a robot
+has more parking candidates: the fold turned in alpha by whole multiples of
+:data:`CLEAR_PARKING_STEP_DEG` (beta at the fold angle), each inside the robot's range and
+clear of obstacles, weighing ``-PARKING_PENALTY``: the assigner moves an idle robot's
+folded beta arm off a neighbour's target when that gains a target, and keeps the fold
+otherwise.
 
 A layout with fiber columns (a calibrated SDSS-V instrument) uses each robot's own BOSS
 and APOGEE fibers (a robot of a ``Boss`` hole has no APOGEE fiber); a layout without them
@@ -31,6 +36,14 @@ from rfp_twin.models.layout.columns import FIBER_COLUMNS, fit_to_limits, robot_f
 #: Arm codes of a candidate.
 RIGHT, LEFT, PARKED = 0, 1, -1
 ARMS = ("right", "left")
+#: Parking modes: the fold only, or the fold and its alpha turns (module docstring).
+PARKING_MODES = ("fold", "clear")
+DEFAULT_PARKING = "clear"
+#: Alpha step of the clear parking poses, deg: the fold turned by k x this, k = 1, 2, ...
+CLEAR_PARKING_STEP_DEG = 60.0
+#: Weight of a parking pose other than the fold: a tie-break far below any target's
+#: priority (CP-SAT scales non-integer weights by 1000, so it stays a whole unit there).
+PARKING_PENALTY = 1e-3
 #: Fiber slots of a robot: 0 BOSS (or the one fiber of a generic robot), 1 APOGEE.
 SLOT_NAMES = ("boss", "apogee")
 
@@ -40,7 +53,8 @@ class Candidates:
     """Every candidate pose of an assignment (c candidates, n robots), grouped by robot.
 
     Candidates of robot ``i`` are ``ptr[i]:ptr[i + 1]``; the first of them is its
-    parking pose (target -1, weight 0).
+    fold (target -1, weight 0), then its other parking poses if any (target -1, weight
+    ``-PARKING_PENALTY``), then its targets.
 
     Attributes
     ----------
@@ -49,7 +63,8 @@ class Candidates:
     angles : (c, 2) float64 (alpha, beta) model angles, deg, inside the robot's range
     arm : (c,) int8 RIGHT / LEFT / PARKED
     slot : (c,) int8 fiber slot (0 BOSS or the generic fiber, 1 APOGEE; -1 parking)
-    weight : (c,) float64 the target's priority (0 for parking)
+    weight : (c,) float64 the target's priority (0 for the fold, ``-PARKING_PENALTY`` for
+        another parking pose)
     seg : (c, 4) float64 beta collision segment (x0, y0, x1, y1), mm
     ptr : (n + 1,) int64
     """
@@ -69,7 +84,7 @@ class Candidates:
 
     @property
     def parking(self) -> np.ndarray:
-        """(n_robots,) int64 index of each robot's parking candidate."""
+        """(n_robots,) int64 index of each robot's fold candidate."""
         return self.ptr[:-1]
 
 
@@ -98,6 +113,21 @@ def parking_angles(geom) -> np.ndarray:
     """(n, 2) deg each robot's parking pose: the spec's fold turned into its range."""
     fold = np.tile(np.asarray(geom.spec.fold_deg, dtype=np.float64), (geom.n_robots, 1))
     return fit_to_limits(fold, geom.limits)[0]
+
+
+def clear_parking_angles(geom) -> tuple[np.ndarray, np.ndarray]:
+    """The parking poses besides the fold (module docstring): ``(robot (p,) int64,
+    angles (p, 2) deg)``, the fold's alpha turned by k x :data:`CLEAR_PARKING_STEP_DEG`
+    (k = 1 .. 360 / step - 1), beta at the fold angle, kept where inside the robot's range."""
+    n = geom.n_robots
+    steps = np.arange(1, int(round(360.0 / CLEAR_PARKING_STEP_DEG)))
+    fold = np.asarray(geom.spec.fold_deg, dtype=np.float64)
+    ang = np.empty((n, steps.size, 2))
+    ang[..., 0] = fold[0] + steps * CLEAR_PARKING_STEP_DEG
+    ang[..., 1] = fold[1]
+    fitted, inside = fit_to_limits(ang, geom.limits[:, None, :])
+    robot = np.repeat(np.arange(n, dtype=np.int64), steps.size).reshape(n, steps.size)
+    return robot[inside], fitted[inside].reshape(-1, 2)
 
 
 #: A left-armed pose is a candidate only this far (mm) inside the rim of the patrol annulus:
@@ -157,7 +187,8 @@ def _obstacle_clear(robot, seg, fid_ptr, fid_idx, fid_xy, fid_end_xy, fid_buffer
 def build_candidates(geom, catalogue: Catalogue, *, margin_mm: float = 0.0,
                      arms: tuple[str, ...] = ARMS,
                      forbidden: set[tuple[int, int]] | None = None,
-                     fixed: dict[int, tuple[float, float]] | None = None) -> Candidates:
+                     fixed: dict[int, tuple[float, float]] | None = None,
+                     parking: str = DEFAULT_PARKING) -> Candidates:
     """Every candidate pose of ``catalogue`` on ``geom`` (module docstring).
 
     Parameters
@@ -169,6 +200,7 @@ def build_candidates(geom, catalogue: Catalogue, *, margin_mm: float = 0.0,
     forbidden : {(robot id, target id)} pairs that may not be candidates
     fixed : {robot id: (alpha, beta) deg} robots that do not move (offline): their one
         candidate is that pose, in place of the parking pose
+    parking : fold | clear (:data:`PARKING_MODES`): the fold only, or also its alpha turns
     """
     n = geom.n_robots
     slots = robot_fiber_slots(geom)
@@ -217,6 +249,14 @@ def build_candidates(geom, catalogue: Catalogue, *, margin_mm: float = 0.0,
         park[k] = ang
     parts.append((np.arange(n, dtype=np.int64), np.full(n, -1, dtype=np.int64), park,
                   np.full(n, PARKED, dtype=np.int8), np.full(n, -1, dtype=np.int8)))
+    n_main = sum(p[0].size for p in parts)
+    if parking == "clear":
+        r_c, a_c = clear_parking_angles(geom)
+        keep = ~still[r_c]
+        r_c, a_c = r_c[keep], a_c[keep]
+        parts.append((r_c, np.full(r_c.size, -1, dtype=np.int64), a_c,
+                      np.full(r_c.size, PARKED, dtype=np.int8),
+                      np.full(r_c.size, -1, dtype=np.int8)))
     robot = np.concatenate([p[0] for p in parts])
     target = np.concatenate([p[1] for p in parts])
     angles = np.concatenate([p[2] for p in parts]).reshape(-1, 2)
@@ -228,13 +268,16 @@ def build_candidates(geom, catalogue: Catalogue, *, margin_mm: float = 0.0,
     if geom.fid_idx.size:
         _obstacle_clear(robot, seg, geom.fid_ptr, geom.fid_idx, geom.fid_xy, geom.fid_end_xy,
                         geom.fid_buffer, geom.buffer, float(margin_mm), clear)
-    clear |= arm == PARKED                  # the fold is where every robot starts
-    # parking first within each robot, then targets in catalogue order
-    order = np.lexsort((target, arm != PARKED, robot))
+    extra = np.arange(robot.size) >= n_main   # clear parking poses
+    clear |= (arm == PARKED) & ~extra       # the fold is where every robot starts
+    # the fold first within each robot, then the other parking poses, then targets in
+    # catalogue order
+    order = np.lexsort((target, extra, arm != PARKED, robot))
     order = order[clear[order]]
-    robot, target = robot[order], target[order]
+    robot, target, extra = robot[order], target[order], extra[order]
     weight = np.zeros(robot.size)
     weight[target >= 0] = catalogue.priority[target[target >= 0]]
+    weight[extra] = -PARKING_PENALTY
     ptr = np.searchsorted(robot, np.arange(n + 1)).astype(np.int64)
     return Candidates(robot=robot, target=target, angles=angles[order], arm=arm[order],
                       slot=slot[order], weight=weight, seg=np.ascontiguousarray(seg[order]),

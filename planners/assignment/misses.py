@@ -7,8 +7,8 @@ the most benign reason any of its candidate poses has, in this order:
   pose (the assignment left it for another reason: a forbidden pair of the plannable
   loop, a time-limited solve, a quota);
 - ``parked_neighbour``: a candidate whose robot is parked and whose pose collides only
-  with parked neighbours (their parking pose, e.g. the fold, is in the way: a clear
-  parking pose elsewhere would free it);
+  with parked neighbours (their parking pose, e.g. the fold, is in the way: another
+  parking pose would free it);
 - ``assigned_neighbour``: a candidate whose robot is parked, blocked by a neighbour on
   another target;
 - ``robot_busy``: every robot that reaches it holds another target.
@@ -29,9 +29,17 @@ MISS_REASONS = ("other", "parked_neighbour", "assigned_neighbour", "robot_busy")
 
 
 def chosen_candidates(cands: Candidates, assignment) -> np.ndarray:
-    """(n_robots,) int64: the candidate index of each robot's assigned pose (its parking
-    candidate when parked, or when the pose is not among ``cands``)."""
+    """(n_robots,) int64: the candidate index of each robot's assigned pose (a parked
+    robot's parking candidate at its angles, else its fold; the fold too when the pose is
+    not among ``cands``)."""
     chosen = cands.ptr[:-1].copy()
+    for r in np.flatnonzero(assignment.target < 0):
+        lo, hi = cands.ptr[r], cands.ptr[r + 1]
+        hit = np.flatnonzero((cands.target[lo:hi] < 0)
+                             & np.all(np.abs(cands.angles[lo:hi] - assignment.angles[r]) < 1e-9,
+                                      axis=1))
+        if hit.size:
+            chosen[r] = lo + hit[0]
     for r in np.flatnonzero(assignment.target >= 0):
         lo, hi = cands.ptr[r], cands.ptr[r + 1]
         hit = np.flatnonzero((cands.target[lo:hi] == assignment.target[r])
@@ -49,8 +57,7 @@ def miss_reasons(geom, cands: Candidates, assignment, margin_mm: float,
     chosen = chosen_candidates(cands, assignment)
     is_chosen = np.zeros(cands.n, dtype=bool)
     is_chosen[chosen] = True
-    parking = np.zeros(cands.n, dtype=bool)
-    parking[cands.ptr[:-1]] = True
+    parking = cands.target < 0
     a, b = conflict_pairs(cands, neighbour_pairs(geom, margin_mm), geom.buffer, margin_mm)
     by_parked = np.zeros(cands.n, dtype=np.int64)
     by_assigned = np.zeros(cands.n, dtype=np.int64)

@@ -102,3 +102,37 @@ def test_targets_within_reach_are_the_assigners_candidates(three_passes):
     c = s["completeness"]
     assert c["within_reach"] == pytest.approx(ids.size / np.count_nonzero(near & (cat.kind == SCIENCE)))
     assert s["passes"][-1]["cumulative_within_reach"] == c["within_reach"]
+
+
+def test_a_target_needing_two_exposures_is_observed_twice_and_complete_after_the_second():
+    from rfp_twin.models.catalogue import Catalogue
+
+    rc, cat = field(per_patrol=1.5, levels=1)
+    exposures = np.where(np.arange(cat.n_targets) % 2 == 0, 2, 1)
+    cat = Catalogue(cat.ids, cat.xy, cat.priority, cat.kind, cat.fiber, cat.source, exposures)
+    done = observe_passes(rc, cat, AssignSettings(), 3, seed=1)
+    ids = np.concatenate([p.observed for p in done])
+    got = {int(t): int(n) for t, n in zip(*np.unique(ids, return_counts=True))}
+    need = dict(zip(cat.ids.tolist(), cat.exposures.tolist()))
+    assert all(n <= need[t] for t, n in got.items())             # never more than it needs
+    assert any(n == 2 for n in got.values())                      # some had both exposures
+    for p in done:
+        assert p.observed.size == np.unique(p.observed).size      # once per pass
+    s = passes_summary(cat, done)
+    complete = sum(1 for t, n in got.items() if n >= need[t])
+    assert s["completeness"]["n_observed"] == complete
+    assert sum(r["completed_science"] for r in s["passes"]) == complete
+    assert sum(r["observed_science"] for r in s["passes"]) == ids.size > complete
+
+
+def test_a_catalogue_exposures_column_is_read_and_checked(tmp_path):
+    from rfp_twin.models.catalogue import read_catalogue
+    from rfp_twin.models.errors import CatalogueError
+
+    f = tmp_path / "c.csv"
+    f.write_text("id,x_mm,y_mm,exposures\n1,0,10,3\n2,0,-10,\n")
+    assert read_catalogue(f).exposures.tolist() == [3, 1]
+    f.write_text("id,x_mm,y_mm,exposures\n1,0,10,0\n")
+    with pytest.raises(CatalogueError, match=r"c.csv:2: field 'exposures' = '0'; allowed: an "
+                                             r"integer in \[1, 1000\]"):
+        read_catalogue(f)

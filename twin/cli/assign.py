@@ -24,8 +24,9 @@ STEP = next(f for f in fields(PlannerSettings) if f.name == "step_deg")
 STEP_INFO = option_info(PlannerSettings, "step_deg")
 CATALOGUE_HELP = ("A catalogue file (CSV or Parquet: id; x_mm,y_mm or x_wok_mm,y_wok_mm or "
                   "ra_deg,dec_deg; optional priority, kind science|sky|standard, fiber "
-                  "boss|apogee|any) or a mock: mock:uniform|clustered:DENSITY[/deg2|/patrol|"
-                  "/robot][,sky=D][,standard=D][,levels=K][,fiber=F][,children=C][,sigma=MM].")
+                  "boss|apogee|any, exposures) or a mock: mock:uniform|clustered:DENSITY[/deg2|/patrol|"
+                  "/robot][,sky=D][,standard=D][,levels=K][,fiber=F][,children=C][,sigma=MM]"
+                  "[,exposures=N].")
 
 
 @one_line_errors
@@ -44,7 +45,7 @@ def assign(
 ) -> None:
     """Assign a catalogue's targets to the robots: at most one target per robot and each
     target once, no two final poses colliding, priorities maximised; robots without a
-    target are parked at the fold. Writes assignment.csv (plan it with `rfp-twin plan
+    target are parked (--parking). Writes assignment.csv (plan it with `rfp-twin plan
     --targets OUT/assignment.csv`) and report.json."""
     from rfp_twin.planners import apply_offline
     from rfp_twin.planners.assignment import assign as run_assign
@@ -88,7 +89,8 @@ def print_report(report: dict, out: Path) -> None:
                       f"sky, {cat['n_standard']} standard)"),
         ("candidates", f"{st['n_candidates']} poses"),
         ("assigned", f"{report['assigned']} ({c['science']} science, {c['sky']} sky, "
-                     f"{c['standard']} standard), {c['parked']} parked"),
+                     f"{c['standard']} standard), {c['parked']} parked "
+                     f"({c.get('parked_off_fold', 0)} off the fold)"),
         ("objective / bound", f"{report['objective']:g} / {report['bound']:g} (gap "
                               f"{100 * report['gap']:.2f} %)"),
         ("solver / status", f"{report['solver']} / {report['status']}"),

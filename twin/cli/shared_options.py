@@ -104,6 +104,11 @@ class CatalogueOptions:
     standard_quota: int = option(0, "Minimum standard fibers per region")
     sectors: int = option(1, "Regions for the quotas: equal angular sectors about the "
                           "array's centre")
+    parking: str = option("clear", "Pose of a robot without a target: clear (the fold or the "
+                          "fold turned in alpha by k x 60 deg, chosen by the assigner to keep "
+                          "a folded beta arm off a neighbour's target; the fold unless "
+                          "another gains a target) | fold (always the fold)",
+                          choices=("fold", "clear"))
 
     def settings(self, **changes):
         """:class:`rfp_twin.planners.assignment.AssignSettings` of these options (``changes``:
@@ -112,7 +117,7 @@ class CatalogueOptions:
 
         arms = ("right", "left") if self.arms == "both" else tuple(
             v for v in self.arms.split(",") if v)
-        return AssignSettings(solver=self.solver, arms=arms,
+        return AssignSettings(solver=self.solver, arms=arms, parking=self.parking,
                               quotas=Quotas(sky=self.sky_quota, standard=self.standard_quota,
                                             sectors=self.sectors), **changes)
 

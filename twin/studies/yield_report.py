@@ -252,8 +252,8 @@ def yield_section(study_dir: str | Path, out_dir: Path, point_ids: set[str] | No
              "the most benign reason one of their candidate poses has: "
              + "; ".join(f"{text} {missed[c]}" for c, text in MISSED.items())
              + ". Per point, the table gives the mean per trial (busy / parked / neighbour / "
-             "other): a design whose misses are *parked* would gain from a parking pose that "
-             "clears its neighbours' patrol areas.", "",
+             "other): a design whose misses are *parked* loses them to idle robots' parking "
+             "poses (the fold, or with clear parking its alpha turns too).", "",
              f"![completeness]({COMPLETENESS_PNG})", "",
              f"*{COMPLETENESS_PNG}*: completeness against density, one line per design (mean "
              "over the trials; bars: lowest and highest trial); left uniform (Poisson), right "

@@ -90,7 +90,8 @@ def yield_columns(geom: ArrayGeometry, options: PlanOptions, point: dict, seed: 
     outcome, a = loop.outcome, loop.assignment
 
     science = cat.kind == SCIENCE
-    cands = build_candidates(geom, cat, margin_mm=rc.target_margin_mm(), arms=settings.arms)
+    cands = build_candidates(geom, cat, margin_mm=rc.target_margin_mm(), arms=settings.arms,
+                             parking=settings.parking)
     reachable = np.zeros(cat.n_targets, dtype=bool)
     reachable[cands.target[cands.target >= 0]] = True
     available = science & reachable

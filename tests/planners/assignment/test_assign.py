@@ -57,7 +57,12 @@ def assert_valid(geom, cat, a):
     assert taken.size == np.unique(taken).size
     assert static_check(geom, a.angles, float(geom.buffer_mm)).ok
     assert np.all(a.arm[a.target < 0] == PARKED)
-    assert np.allclose(a.angles[a.target < 0], parking_angles(geom)[a.target < 0])
+    # parked: the fold, or (clear parking) the fold turned in alpha by k x 60 deg
+    park = a.target < 0
+    fold = parking_angles(geom)[park]
+    assert np.allclose(a.angles[park, 1], fold[:, 1])
+    turn = (a.angles[park, 0] - fold[:, 0]) / 60.0
+    assert np.allclose(turn, np.round(turn))
 
 
 @pytest.mark.parametrize("per_patrol,levels", [(0.6, 1), (1.5, 3), (6.0, 2)])

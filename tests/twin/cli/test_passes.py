@@ -57,3 +57,20 @@ def test_a_direct_stuck_share_out_of_range_exits_2(tmp_path):
             "mock:uniform:1/patrol", "--passes", "2", "--direct-stuck", "1.5", "--out", str(out))
     assert r.returncode == 2 and "--direct-stuck 1.5; allowed: [0, 1]" in r.stderr
     assert not out.exists()
+
+
+def test_a_mock_whose_targets_need_two_exposures_is_observed_in_two_passes(tmp_path):
+    out = tmp_path / "p"
+    r = run("plan", "--layout", "hex:19", "--buffer", "2.0", "--telescope", "none",
+            "--catalogue", "mock:uniform:1/patrol,exposures=2", "--seed", "2",
+            "--passes", "2", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    rows = list(csv.DictReader((out / "passes.csv").open()))
+    assert int(rows[0]["completed_science"]) == 0 < int(rows[0]["observed_science"])
+    seen = [row["target_id"] for row in csv.DictReader((out / "observed.csv").open())]
+    twice = {t for t in seen if seen.count(t) == 2}
+    assert int(rows[1]["completed_science"]) == len(twice) > 0
+    assert max(seen.count(t) for t in seen) <= 2
+    r = run("plan", "--layout", "hex:7", "--telescope", "none", "--catalogue",
+            "mock:uniform:1/patrol,exposures=0", "--passes", "2", "--out", str(tmp_path / "q"))
+    assert r.returncode == 2 and "exposures='0'; allowed: an integer in [1, 1000]" in r.stderr
