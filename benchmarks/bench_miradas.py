@@ -11,8 +11,9 @@ Part ``many``: target sets of 6-12 targets drawn in the field (final poses clear
 each other, arms without a target parked), planned from park and chained (each set
 from the previous one's poses), with the paper's travel-time priorities, the same with
 the arms that stay still first, random ones, travel-time with up to 8 re-plans (Sect.
-2.1: the arm that failed goes first), and those followed by a search over priorities
-(priority-based search, Ma et al. 2019) on what they leave: success rate, makespan, start-stop cycles, checks and planning time beside the
+2.1: the arm that failed goes first), those followed by a search over priorities
+(priority-based search, Ma et al. 2019) on what they leave, or by make-way windows with
+retreat vertices (ours, ``RECOVERING``, what ``rfp-twin plan`` uses): success rate, makespan, start-stop cycles, checks and planning time beside the
 paper's (Sect. 8: 97 % from park, makespan median 102.55 s, range 96-114 s; 93 %
 chained, median 90.6 s, max 108 s). Every plan found is passed through the independent
 2D check (rfp_twin.validation.probe, every 0.01 s) and the FCL 3D check (every 0.1 s) at
@@ -92,9 +93,10 @@ def typical(repeat: int) -> None:
 
 
 #: Policies compared: name -> ProbePlanSettings fields. "windows": after the re-plans,
-#: passes with make-way windows (arms not yet planned stand at their start for the first
-#: 12 / 24 / 36 s, so earlier arms wait for them to leave) and retreat / stop-over
-#: vertices in every roadmap; "search": the re-plans, then priority-based search.
+#: passes with make-way windows (the arms that failed before, while not yet planned,
+#: stand at their start for the first 12 / 24 / 36 s, so earlier arms wait for them to
+#: leave); retreat / stop-over vertices in every pass after the first; "search": the
+#: re-plans, then priority-based search (Ma et al. 2019) on what they leave.
 ROWS = {"paper": dict(priority="travel-time"), "still": dict(priority="still-first"),
         "random": dict(priority="random"), "replans": dict(priority="travel-time", replans=8),
         "search": dict(priority="travel-time", replans=8, search_nodes=24),

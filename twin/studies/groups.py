@@ -20,12 +20,14 @@ from rfp_twin.twin.studies.spec import PARAM_COLUMNS
 from rfp_twin.twin.studies.store import STUDY_COPY, read_results
 
 __all__ = ["Group", "load_groups", "varied_params", "make_series", "series_label",
-           "fmt_val", "fmt_num", "sort_key", "ALG_SHORT", "ALG_ORDER", "SERIES_PARAMS", "SHORT"]
+           "fmt_val", "fmt_num", "sort_key", "ALG_SHORT", "ALG_ORDER", "SERIES_PARAMS", "CATALOGUE_PARAMS", "SHORT"]
 
 #: Parameters that define a series (the resolved grid keys minus derived ones).
 SERIES_PARAMS = ("preset", "layout", "n_robots", "pitch_mm", "alpha_length_mm",
                  "beta_length_mm", "fold_alpha_deg", "fold_beta_deg", "buffer_mm", "step_deg",
                  "greed", "phobia", "resolution", "direction", "max_rounds")
+#: Parameters of a yield point's catalogue (absent from planning-only studies).
+CATALOGUE_PARAMS = ("catalogue", "density")
 SHORT = {"preset": "", "layout": "", "n_robots": "n", "pitch_mm": "pitch",
          "alpha_length_mm": "l_a", "beta_length_mm": "l_b", "fold_alpha_deg": "fold a",
          "fold_beta_deg": "fold b", "buffer_mm": "sigma",
@@ -117,6 +119,9 @@ def load_groups(study_dir: str | Path, all_points: bool = False) -> tuple[list[G
             continue
         first = idx[0]
         g = Group(pid, {k: cols[k][first] for k in PARAM_COLUMNS})
+        for k in CATALOGUE_PARAMS:          # yield points: the catalogue is part of the point
+            if cols.get(k) and cols[k][first] is not None:
+                g.params[k] = cols[k][first]
         g.n = len(idx)
         ok = [i for i in idx if cols["status"][i] != "error"]
         g.n_error = g.n - len(ok)

@@ -52,8 +52,9 @@ import numpy as np
 from rfp_twin.twin.studies.coverage import COVERAGE_FILE
 from rfp_twin.twin.studies.figures import FIGURES, draw_figures
 from rfp_twin.twin.studies.frontier import frontier_section
-from rfp_twin.twin.studies.groups import (ALG_SHORT, SHORT, Group, fmt_num, fmt_val, load_groups,
-                                 make_series, series_label, varied_params)
+from rfp_twin.twin.studies.groups import (ALG_SHORT, CATALOGUE_PARAMS, SHORT, Group, fmt_num,
+                                          fmt_val, load_groups, make_series, series_label,
+                                          varied_params)
 from rfp_twin.twin.studies.paper import PAPER_FIG10, paper_sections
 from rfp_twin.twin.studies.spec import StudyError
 from rfp_twin.twin.studies.store import RESULTS, replace_atomically
@@ -181,6 +182,7 @@ def _grid_section(groups, varied) -> list[str]:
 def _points_table(groups, varied) -> list[str]:
     """Markdown table: one row per grid point (varied parameters, counts, means)."""
     cols = [k for k in varied if k != "algorithm"]
+    cols += [k for k in CATALOGUE_PARAMS if any(k in g.params for g in groups)]
     head = (["alg"] + [SHORT.get(k) or k for k in cols]
             + ["trials", "errors", "mean eff.", "95 % CI", "min eff.", "std", "conv. 1st run",
                "fold s", "tau_pg s", "tau_sr s", "replaced", "rounds", "deadlocked left",
@@ -190,7 +192,7 @@ def _points_table(groups, varied) -> list[str]:
         e = g.v("efficiency")
         lo, hi = g.ci95("efficiency")
         std = float(np.std(e, ddof=1)) if e.size > 1 else math.nan
-        row = [ALG_SHORT.get(g.alg, g.alg)] + [fmt_val(k, g.params[k]) for k in cols] + [
+        row = [ALG_SHORT.get(g.alg, g.alg)] + [fmt_val(k, g.params.get(k, "-")) for k in cols] + [
             str(g.n), str(g.n_error), fmt_num(g.mean("efficiency")),
             f"{fmt_num(lo)}-{fmt_num(hi)}", fmt_num(g.min("efficiency")), fmt_num(std),
             fmt_num(g.mean("convergence")), fmt_num(g.mean("fold_time_s"), 2),

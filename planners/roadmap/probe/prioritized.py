@@ -89,7 +89,8 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
     trajectories. With ``settings.replans`` > 0 a failed pass is followed by another with
     the arm that failed first in the order (Sect. 2.1), at most that many times (fewer
     when an order comes back); then, for each make-way window of
-    ``settings.windows_s``, the same passes with that window (:func:`_one_pass`); with
+    ``settings.windows_s``, the same passes with that window given to the arms that found
+    no trajectory in an earlier pass (:func:`_one_pass`); with
     ``settings.search_nodes`` > 0, what they leave unsolved goes to a search over the
     priorities (:func:`rfp_twin.planners.roadmap.probe.search.search_priorities`).
     """
@@ -104,7 +105,7 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
     check_clear(kind, goal, "target")
     clock = time.perf_counter()
     first = priority_order(kind, start, goal, s.priority, rng)
-    passes, checks = 0, 0
+    passes, checks, stuck = 0, 0, set()
     for window in (0.0, *s.windows_s):
         order, tried = first, set()
         for again in range(s.replans + 1):
@@ -115,9 +116,12 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
                 if tuple(order) in tried:
                     break
             tried.add(tuple(order))
-            plan = _one_pass(kind, start, goal, s, order, rng, window, retreats=passes > 0)
+            plan = _one_pass(kind, start, goal, s, order, rng, window, retreats=passes > 0,
+                             window_arms=stuck)
             passes += 1
             checks += plan.checks
+            if not plan.success:
+                stuck.add(plan.failed_arm)
             if plan.success:
                 break
         if plan.success:
@@ -138,13 +142,14 @@ def plan_probe_arms(kind, start: np.ndarray, goal: np.ndarray,
 
 def _one_pass(kind, start: np.ndarray, goal: np.ndarray, s: ProbePlanSettings, order: list[int],
               rng: np.random.Generator, window_s: float = 0.0,
-              retreats: bool = False) -> ProbePlan:
+              retreats: bool = False, window_arms: set | None = None) -> ProbePlan:
     """Algorithm 1 once, in priority ``order``.
 
-    With ``window_s`` > 0, every arm not yet planned is also an obstacle at its start
-    pose for the first ``window_s`` s (make-way window): an arm planned earlier waits for
-    it to leave instead of sweeping through it at once, and that arm, planned later
-    against the earlier ones, must then leave its start within the window. With
+    With ``window_s`` > 0, every arm not yet planned (of ``window_arms``, default all) is
+    also an obstacle at its start pose for the first ``window_s`` s (make-way window): an
+    arm planned earlier waits for it to leave instead of sweeping through it at once, and
+    that arm, planned later against the earlier ones, must then leave its start within
+    the window. With
     ``retreats`` every roadmap also gets the retreat and stop-over vertices of
     ``s.retreat_deg`` (:func:`~rfp_twin.planners.roadmap.probe.retreat.retreat_poses`)."""
     clock = time.perf_counter()
@@ -162,7 +167,8 @@ def _one_pass(kind, start: np.ndarray, goal: np.ndarray, s: ProbePlanSettings, o
         arm_clock = time.perf_counter()
         counter = {"checks": 0}
         world = planned
-        below = order[rank + 1:] if window_s > 0.0 else []
+        below = [j for j in order[rank + 1:] if window_arms is None or j in window_arms] \
+            if window_s > 0.0 else []
         if below:
             world = ObstacleTime(kind, s.dt_col_s, horizon)
             world.obs, world.circ = planned.obs, planned.circ

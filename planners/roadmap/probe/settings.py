@@ -44,9 +44,10 @@ class ProbePlanSettings:
         at most this many search-tree nodes (0: none, the paper's planner)
     priority : "travel-time" (Sect. 7) | "still-first" | "random" (:data:`PRIORITIES`)
     windows_s : tuple of float, make-way windows tried in turn when the passes fail, s:
-        passes in which every arm not yet planned stands at its start for the first
-        ``w`` s, so that arms planned before it wait for it to leave (each with the
-        re-plans); () = none, the paper's planner
+        passes in which each arm that found no trajectory in an earlier pass, while not
+        yet planned, stands at its start for the first ``w`` s, so that arms planned
+        before it wait for it to leave (each window with the re-plans); () = none, the
+        paper's planner
     retreat_deg : tuple of float, in every pass after the first, each roadmap also gets its
         start and goal with theta1 raised by these amounts (retreats towards the park
         side) and three stop-overs on its direct route, deg (Sect. 9's "garage" idea)

@@ -53,19 +53,23 @@ def test_export_reloads_in_mujoco(tmp_path, layout, n_arms):
     assert d.ncon == 0
 
 
-@pytest.mark.parametrize("old, new, words", [
-    ("ds1_mm = 100.0", "ds1_mm = 270.0", ["'park_deg'", "ZoA", "allowed"]),
-    ("d12_mm = 200.0", "d12_mm = 150.0", ["'d12_mm'", "allowed: > d13_mm + d24_mm"]),
+@pytest.mark.parametrize("changes, words", [
+    ({"ds1_mm = 100.0": "ds1_mm = 270.0"}, ["'park_deg'", "ZoA", "allowed"]),   # park in ZoA
+    ({"d12_mm = 200.0": "d12_mm = 150.0"}, ["'d12_mm'", "allowed: > d13_mm + d24_mm"]),  # no loop
+    ({"ds1_mm = 100.0": "ds1_mm = 400.0", "ds2_mm = 300.0": "ds2_mm = 450.0",   # no pose left
+      "d3tip_mm = 420.0": "d3tip_mm = 500.0"}, ["'ds1_mm, ds2_mm'", "allowed: an interval"]),
 ])
-def test_bad_probe_preset_exits_2_in_one_line(tmp_path, old, new, words):
+def test_bad_probe_preset_exits_2_in_one_line(tmp_path, changes, words):
     from importlib import resources
 
     from rfp_twin.models.kinds.bench import MIRADAS_PRESET
 
     text = (resources.files("rfp_twin.models") / "presets" / f"{MIRADAS_PRESET}.toml").read_text()
-    assert old in text
+    for old, new in changes.items():
+        assert old in text
+        text = text.replace(old, new)
     bad = tmp_path / "bad.toml"
-    bad.write_text(text.replace(old, new))
+    bad.write_text(text)
     out = tmp_path / "run"
     r = CliRunner().invoke(app, ["plan", "--preset", str(bad), "--algorithm", "roadmap",
                                  "--out", str(out)])
