@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_OUT ?= out/demo
 
-.PHONY: demo test bench sysdeps clean kaiju-env kaiju-check kaiju-bench
+.PHONY: demo test bench sysdeps clean kaiju-env kaiju-check kaiju-bench kaiju-production
 
 # System packages: python3-venv, and Mesa's EGL / OSMesa / GL libraries for offscreen
 # MuJoCo rendering. Installed only when missing (needs root, as on the project machines).
@@ -61,6 +61,14 @@ kaiju-check: $(STAMP) kaiju-env
 
 kaiju-bench: $(STAMP) kaiju-env
 	KAIJU_PYTHON=$(KAIJU_VENV)/bin/python $(BIN)/python benchmarks/kaiju/bench_vs_kaiju.py
+
+# The production question: kaiju's jaeger flow (MDP2 + getPathPair) against ours, same targets.
+kaiju-production: $(STAMP) kaiju-env
+	for i in apo lco; do \
+	  KAIJU_PYTHON=$(KAIJU_VENV)/bin/python $(BIN)/python benchmarks/kaiju/bench_production_kaiju.py kaiju --instrument $$i --seeds 1-50; \
+	  KAIJU_PYTHON=$(KAIJU_VENV)/bin/python $(BIN)/python benchmarks/kaiju/bench_production_kaiju.py ours --instrument $$i --seeds 1-50; \
+	done
+	$(BIN)/python benchmarks/kaiju/bench_production_kaiju.py report --figure benchmarks/figures/production_vs_kaiju.png
 
 clean:
 	rm -rf $(VENV) out .pytest_cache
