@@ -33,8 +33,6 @@ complete; ``rerun rrd verify FILE`` checks it.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -47,12 +45,12 @@ from rfp_twin.models.errors import RfpError
 from rfp_twin.models.mjcf import RGBA, VISUAL_GROUP, TwinModel
 from rfp_twin.models.mjcf.tiled_twin import TiledTwin
 from rfp_twin.models.trajectory import Trajectory
+from rfp_twin.twin.rrd_file import APPLICATION_ID, write_recording
 from rfp_twin.twin.record_poses import iter_link_poses, model_parts
 from rfp_twin.twin.sim import SimReport, SimSettings, simulate
 
 #: Name of the time line.
 TIMELINE = "sim_time"
-APPLICATION_ID = "rfp-twin"
 #: A link pose is logged again when an angle moved more than this since the last one, deg.
 POSE_EPS_DEG = 1e-4
 CONTACT_RGBA = (1.0, 0.1, 0.05, 1.0)
@@ -178,29 +176,8 @@ def record_run(twin: TwinModel | TiledTwin, trajectory: Trajectory | None, out_r
             raise RecordError("record_run needs a trajectory or a simulation report")
         sim_report = simulate(twin, trajectory, faults, sim_settings, record=True)
     sim_report.sampled_record(RecordError)
-    out = Path(out_rrd)
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.stem}.", suffix=".tmp.rrd")
-        os.close(fd)
-    except OSError as exc:
-        raise RecordError(f"{out}: cannot write here ({exc.strerror}); allowed: a path in a "
-                          "writable folder") from None
-    rec = rr.RecordingStream(APPLICATION_ID, send_properties=False)
-    try:
-        rec.save(tmp)
-        _log_run(rec, twin, sim_report, settings, progress)
-        rec.flush()
-        rec.disconnect()
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, out)
-    except BaseException:
-        try:
-            rec.disconnect()
-        finally:
-            Path(tmp).unlink(missing_ok=True)
-        raise
-    return out
+    return write_recording(out_rrd, lambda rec: _log_run(rec, twin, sim_report, settings,
+                                                         progress), RecordError)
 
 
 def _log_run(rec: rr.RecordingStream, twin, report: SimReport, settings: RecordSettings,

@@ -25,17 +25,15 @@ destination and renamed onto it when complete. Units: mm, deg, s.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import rerun as rr
 
 from rfp_twin.models.errors import RfpError
+from rfp_twin.twin.rrd_file import write_recording
 
 TIMELINE = "sim_time"
-APPLICATION_ID = "rfp-twin"
 #: Colours (rgba 0-255) of crank, rocker, cabinet, tube, head.
 BODY_RGBA = ((77, 102, 153, 255), (77, 102, 153, 255), (140, 140, 153, 255),
              (217, 217, 204, 255), (230, 153, 38, 255))
@@ -80,20 +78,11 @@ def record_probe_plan(plan, out_rrd: str | Path, *, dt_s: float = 0.5, sim_repor
     if not (math.isfinite(dt_s) and dt_s > 0):
         raise RfpError(f"--dt {dt_s}; allowed: a finite number > 0 s")
     kind = plan.kind
-    out = Path(out_rrd)
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.stem}.", suffix=".tmp.rrd")
-        os.close(fd)
-    except OSError as exc:
-        raise RfpError(f"{out}: cannot write here ({exc.strerror}); allowed: a path in a "
-                       "writable folder") from None
     n_t = int(math.ceil(plan.makespan_s / dt_s - 1e-9)) + 1
     times = np.minimum(dt_s * np.arange(n_t), plan.makespan_s)
     poses = plan.at(times)                                            # (T, n, 2)
-    rec = rr.RecordingStream(APPLICATION_ID, send_properties=False)
-    try:
-        rec.save(tmp)
+
+    def log(rec: rr.RecordingStream) -> None:
         rec.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         phi = np.linspace(0.0, 2 * np.pi, 121)
         r = kind.spec.field_radius_mm
@@ -124,14 +113,5 @@ def record_probe_plan(plan, out_rrd: str | Path, *, dt_s: float = 0.5, sim_repor
                          f"{sim_report.max_tracking_deg:.3f} deg")
         rec.log("summary", rr.TextDocument("\n".join(lines), media_type=rr.MediaType.MARKDOWN),
                 static=True)
-        rec.flush()
-        rec.disconnect()
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, out)
-    except BaseException:
-        try:
-            rec.disconnect()
-        finally:
-            Path(tmp).unlink(missing_ok=True)
-        raise
-    return out
+
+    return write_recording(out_rrd, log)
