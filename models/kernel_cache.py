@@ -14,6 +14,15 @@ numba's compiler lock serialises loads: a kernel that the main thread calls whil
 thread loads another waits for that load. So the thread can be told to start only once
 the main thread's long kernel is loaded (``after``).
 
+A kernel's first call in a process may compile it, and numba's compiler recurses deeply in
+Python. On CPython 3.11 a recursion that keeps crossing a boundary between two chunks of
+the interpreter's frame stack maps and unmaps a chunk at each crossing (CPython issue
+gh-142183, fixed in 3.13): where the boundaries fall depends on the caller's stack depth,
+and at an unlucky depth the stepwise kernel's compile spends more time in the kernel
+(mmap, munmap, page faults) than in the compiler. :func:`call_kernel` makes a kernel's
+first call on a new thread, whose stack starts empty, so its compile runs at the same
+depth from every caller (CLI, tests, study workers).
+
 Which kernels to load is registered where they live: a module calls :func:`warm_up` on
 the kernels it calls from Python, under the stage that calls them (:data:`DELIVERY`: a
 plan's paths, its post-processing and the 2D check), and the pipeline asks
@@ -26,8 +35,8 @@ import threading
 import time
 from collections.abc import Iterable
 
-__all__ = ["DELIVERY", "Preload", "cached_signatures", "kernel_by_name", "preload_cached",
-           "warm_kernels", "warm_up"]
+__all__ = ["DELIVERY", "Preload", "cached_signatures", "call_kernel", "kernel_by_name",
+           "preload_cached", "warm_kernels", "warm_up"]
 
 #: How often the thread looks whether the kernel it waits for is loaded, s.
 _POLL_S = 0.002
@@ -141,3 +150,27 @@ def preload_cached(names: Iterable, *, after: str | None = None) -> Preload:
     is loaded (the long nogil call the loads are to hide behind) or
     :meth:`Preload.release` is called."""
     return Preload(tuple(names), after)
+
+
+def call_kernel(kernel, *args):
+    """``kernel(*args)`` for a ``@njit`` dispatcher; while it has no compiled signature yet
+    (its first call in this process, which loads or compiles it) the call runs on a new
+    thread, so the compile starts from an empty Python stack (module docstring). Returns
+    what the kernel returns; an exception it raises is raised here."""
+    if kernel.overloads:
+        return kernel(*args)
+    out: list = []
+
+    def run() -> None:
+        try:
+            out.append((True, kernel(*args)))
+        except BaseException as exc:        # raised again on the caller's thread below
+            out.append((False, exc))
+
+    thread = threading.Thread(target=run, name="rfp-kernel-first-call", daemon=True)
+    thread.start()
+    thread.join()
+    ok, value = out[0]
+    if not ok:
+        raise value
+    return value

@@ -85,6 +85,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from rfp_twin.models.kernel_cache import call_kernel
 from rfp_twin.planners.stepwise.candidates import (any_move_passes, commit, fill_candidates,
                                                    sort_by_cost, try_cand)
 from rfp_twin.planners.stepwise.mc_choice import mc_pick_free, mc_pick_sequential, uniform
@@ -198,9 +199,9 @@ def run_stepwise(base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
     script = (np.ascontiguousarray(script[0], dtype=np.int64),
               np.ascontiguousarray(script[1], dtype=np.float64),
               np.ascontiguousarray(script[2], dtype=np.float64))
-    return run_stepwise_arrays(
-        base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist, fid_ptr, fid_idx,
-        fid_xy, fid_end_xy, _per_item(fid_buffer, m), _per_item(alpha_len, n),
+    return call_kernel(
+        run_stepwise_arrays, base_xy, start, dest, movable, nbr_ptr, nbr_idx, nbr_dist,
+        fid_ptr, fid_idx, fid_xy, fid_end_xy, _per_item(fid_buffer, m), _per_item(alpha_len, n),
         _per_item(seg_start, n), _per_item(seg_end, n), _per_item(buffer, n),
         _per_item(limits, n, (4,)), step_deg, max_steps, md, _per_item(greed, n),
         _per_item(phobia, n), seed, ev_robot, ev_step, ev_angles, cur, greedy_first, script,

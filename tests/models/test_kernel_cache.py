@@ -3,12 +3,14 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import threading
 
 import numpy as np
 import pytest
+from numba import njit
 
-from rfp_twin.models.kernel_cache import (DELIVERY, cached_signatures, kernel_by_name,
-                                          preload_cached, warm_kernels, warm_up)
+from rfp_twin.models.kernel_cache import (DELIVERY, cached_signatures, call_kernel,
+                                          kernel_by_name, preload_cached, warm_kernels, warm_up)
 from rfp_twin.planners.postprocess.timing.law import law_times, s_at_times
 from rfp_twin.twin.pipeline import PLANNER_KERNEL
 
@@ -69,3 +71,36 @@ def test_a_fresh_process_gets_the_kernel_loaded_without_calling_it():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          timeout=120, check=True).stdout.split()
     assert out == ["0", "1"]
+
+
+def test_a_first_call_compiles_on_its_own_thread_and_returns_or_raises():
+    seen = []
+    real_start = threading.Thread.start
+
+    def start(self):
+        seen.append(self.name)
+        real_start(self)
+
+    @njit
+    def halve(x):
+        if x < 0:
+            raise ValueError("negative")
+        return x / 2
+
+    threading.Thread.start = start
+    try:
+        assert call_kernel(halve, 3.0) == 1.5          # first call: compiles on a new thread
+        assert seen == ["rfp-kernel-first-call"] and halve.overloads
+        assert call_kernel(halve, 5.0) == 2.5          # compiled: called here
+        assert seen == ["rfp-kernel-first-call"]
+        with pytest.raises(ValueError, match="negative"):
+            call_kernel(halve, -1.0)
+    finally:
+        threading.Thread.start = real_start
+
+    @njit
+    def fails(x):
+        raise KeyError("first call")
+
+    with pytest.raises(KeyError, match="first call"):
+        call_kernel(fails, 1.0)
