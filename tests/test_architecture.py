@@ -72,3 +72,36 @@ def test_code_imports_the_installed_names_only():
     offenders = [str(p.relative_to(ROOT)) for folder in (*PACKAGES, "tests", "benchmarks")
                  for p in (ROOT / folder).rglob("*.py") if bare.search(p.read_text(encoding="utf-8"))]
     assert offenders == []
+
+
+def test_no_private_name_is_imported_across_modules():
+    """What two modules share has a public name where it belongs: no ``from x import _y``
+    in the code, its tests or the benchmarks."""
+    import ast
+
+    offenders = []
+    for folder in (*PACKAGES, "tests", "benchmarks"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.ImportFrom) and node.module:
+                    offenders += [f"{path.relative_to(ROOT)}: {node.module}.{a.name}"
+                                  for a in node.names
+                                  if a.name.startswith("_") and not a.name.startswith("__")]
+    assert offenders == []
+
+
+def test_the_planners_folder_reads_as_the_stages_and_the_driver_stays_short():
+    """planners/ holds at most 8 entries (the stages' packages), and the plan driver,
+    :func:`rfp_twin.planners.plan.reconfigure.plan_reconfiguration`, fits in 60 lines."""
+    import ast
+    import subprocess
+
+    tracked = subprocess.run(["git", "ls-files", "planners"], cwd=ROOT, capture_output=True,
+                             text=True).stdout.split()
+    entries = {p.split("/")[1] for p in tracked} if tracked else \
+        {p.name for p in (ROOT / "planners").iterdir() if p.name != "__pycache__"}
+    assert len(entries) <= 8, sorted(entries)
+    tree = ast.parse((ROOT / "planners" / "plan" / "reconfigure.py").read_text(encoding="utf-8"))
+    driver = next(n for n in tree.body
+                  if isinstance(n, ast.FunctionDef) and n.name == "plan_reconfiguration")
+    assert driver.end_lineno - driver.lineno + 1 <= 60

@@ -1,11 +1,13 @@
 """Shared builders for planner tests: small arrays built inline, plans through the pipeline."""
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from rfp_twin.models.array import ArrayGeometry
 from rfp_twin.models.layout import Layout
 from rfp_twin.models.robot import load_spec
+from rfp_twin.planners.stepwise import max_displacement
 from rfp_twin.twin.pipeline import PlanOptions
 from rfp_twin.twin.pipeline import plan_random as _pipeline_plan_random
 
@@ -16,6 +18,17 @@ def make_geom(n_positions: int = 37, buffer_mm: float = 2.0, preset: str = "sdss
     if fold is not None:
         spec = spec.with_overrides(fold_deg=tuple(fold))
     return ArrayGeometry(spec, Layout.hex_grid_positions(n_positions, spec.pitch_mm), buffer_mm)
+
+
+def hex7_folded(step: float = 0.5):
+    """The 7-robot hex at 2.0 mm: (geometry, step deg, MD mm, every robot's fold (n, 2),
+    the centre robot's index)."""
+    geom = make_geom(7, 2.0)
+    spec = geom.spec
+    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()),
+                          step)
+    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
+    return geom, step, md, fold, int(np.argmin(np.hypot(*geom.base_xy.T)))
 
 
 def plan_random(geom: ArrayGeometry, seed: int, resolve: bool = True, resolver: str = "replace",

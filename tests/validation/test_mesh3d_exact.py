@@ -9,7 +9,7 @@ from rfp_twin.models.geometry import LINKS
 from tests.validation.conftest import PITCH, sdss_geometry, sdss_models, whole_link_distance
 from rfp_twin.validation.mesh3d import link_pose
 from rfp_twin.validation.mesh3d.exact import ExactDistance
-from rfp_twin.validation.mesh3d.pair import _pair_piece_bounds
+from rfp_twin.validation.mesh3d.pair import pair_piece_bounds
 
 MODELS = sdss_models()
 
@@ -54,7 +54,7 @@ def test_exact_distance_is_the_whole_mesh_distance_and_pruning_keeps_it():
             unpruned = ex.distance(ka, pa, za, kb, pb, zb, np.full(MODELS.max_piece_pairs,
                                                                    -np.inf))
             # the capsule bounds of every piece pair, as the check passes them
-            _, bounds = _pair_piece_bounds(np.deg2rad(ang)[None], PITCH, 0.0, ka, kb,
+            _, bounds = pair_piece_bounds(np.deg2rad(ang)[None], PITCH, 0.0, ka, kb,
                                            MODELS.l_alpha, MODELS.kind_ptr, MODELS.cap,
                                            MODELS.zlim, MODELS.poly_ptr, MODELS.poly_xy,
                                            MODELS.max_piece_pairs)

@@ -38,7 +38,7 @@ def _pair_bounds(ang, ox, oy, lp_ka, lp_kb, la, kptr, cap, zlim, pptr, pxy, tigh
 
 
 @njit(cache=True)
-def _pair_piece_bounds(ang, ox, oy, ka, kb, la, kptr, cap, zlim, pptr, pxy, max_pp):
+def pair_piece_bounds(ang, ox, oy, ka, kb, la, kptr, cap, zlim, pptr, pxy, max_pp):
     """Poses (n, 6) and piece-pair bounds (n, max_pp) of one link pair (ka of A, kb of B)."""
     n = ang.shape[0]
     poses = np.empty((n, 6))
@@ -110,7 +110,7 @@ class RobotPair:
         out = [None] * n
         for p in range(len(self.lp_ka)):
             ka, kb = int(self.lp_ka[p]), int(self.lp_kb[p])
-            poses, pb = _pair_piece_bounds(ang, float(self.offset[0]), float(self.offset[1]),
+            poses, pb = pair_piece_bounds(ang, float(self.offset[0]), float(self.offset[1]),
                                            ka, kb, m.l_alpha, m.kind_ptr, m.cap, m.zlim,
                                            m.poly_ptr, m.poly_xy, m.max_piece_pairs)
             for k in range(n):

@@ -69,7 +69,7 @@ def search_priorities(kind, start: np.ndarray, goal: np.ndarray, s: ProbePlanSet
         return bool(trajectories_touch(ca, ra, cb, rb, probe.pad))
 
     res = priority_search(n, make_arm, conflict, roadmap_settings, rng, max_nodes=max_nodes)
-    order = _topological(n, res.priorities)
+    order = topological_order(n, res.priorities)
     rows, letters = [], iter(string.ascii_uppercase * 4)
     for rank, i in enumerate(order):
         row = ArmRow(arm=i, priority=n - rank, est_travel_s=float(travel_times[i]),
@@ -86,7 +86,7 @@ def search_priorities(kind, start: np.ndarray, goal: np.ndarray, s: ProbePlanSet
                      failed, time.perf_counter() - clock)
 
 
-def _topological(n: int, pairs: set) -> list[int]:
+def topological_order(n: int, pairs: set) -> list[int]:
     """Arms 0..n-1 ordered so that each (higher, lower) pair has higher first (ties by index)."""
     above = {i: {h for h, lo in pairs if lo == i} for i in range(n)}
     out: list[int] = []

@@ -7,13 +7,13 @@ import numpy as np
 
 from rfp_twin.models.kinds import load_kind
 from rfp_twin.planners.roadmap.probe import ObstacleTime, ProbePlanSettings
-from rfp_twin.planners.roadmap.probe.search import _topological
+from rfp_twin.planners.roadmap.probe.search import topological_order
 from rfp_twin.planners.roadmap.probe.world import trajectories_touch
 
 
 def test_topological_order_respects_every_pair():
     pairs = {(3, 0), (0, 2), (1, 2)}
-    order = _topological(4, pairs)
+    order = topological_order(4, pairs)
     assert sorted(order) == [0, 1, 2, 3]
     assert all(order.index(h) < order.index(lo) for h, lo in pairs)
 

@@ -13,13 +13,13 @@ from rfp_twin.planners.roadmap.alpha_beta.settings import SearchResolveSettings
 from rfp_twin.planners.roadmap.alpha_beta.world import AlphaBetaWorld
 from rfp_twin.planners.roadmap import plan_arm
 from rfp_twin.planners.roadmap.arm import compress_breakpoints
-from tests.planners.roadmap.alpha_beta.test_world import _hex7_folded
+from tests.planners.conftest import hex7_folded
 
 
 def _world(stays: bool):
     """7-robot hex: the right neighbour of the centre swings its arm over (and stays
     there if ``stays``, else goes back after 120 steps)."""
-    geom, step, md, fold, c = _hex7_folded()
+    geom, step, md, fold, c = hex7_folded()
     right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
     times = [np.array([0.0])] * geom.n_robots
     confs = [fold[i][None, :] for i in range(geom.n_robots)]

@@ -7,20 +7,14 @@ import numpy as np
 from rfp_twin.models.kinematics import inverse
 from rfp_twin.planners.roadmap.alpha_beta.paths import PathSet
 from rfp_twin.planners.roadmap.alpha_beta.world import AlphaBetaWorld
-from rfp_twin.planners.stepwise import max_displacement
-from tests.planners.conftest import make_geom
+from tests.planners.conftest import hex7_folded
 
 
 def test_collides_keeps_the_step_rule_margin():
     """The adapter's collides() flags capsules nearer than 2 buffer + MD (Eqs. 6-7)."""
-    geom = make_geom(7, 2.0)
-    step = 0.5
-    spec = geom.spec
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
-    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
+    geom, step, md, fold, c = hex7_folded()
     paths = PathSet([np.array([0.0])] * geom.n_robots, [fold[i][None, :] for i in range(geom.n_robots)])
     world = AlphaBetaWorld(geom, paths, np.ones(geom.n_robots, bool), md, step)
-    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
     right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
     arm = world.arm(c, fold[c], fold[c])
     # the centre robot, stretched (beta 0), turns away from its folded right neighbour:
@@ -42,15 +36,11 @@ def intrusion():
     its folded place (3 mm right of its base) at steps 40-60 and folds back.
 
     Returns (geom, md, centre, right, its intruding angles, fold (n, 2), paths)."""
-    geom = make_geom(7, 2.0)
+    geom, step, md, fold, c = hex7_folded()
     spec = geom.spec
-    step = 0.5
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
-    c = int(np.argmin(np.hypot(*geom.base_xy.T)))
     right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
     reach = inverse(geom.base_xy[[right]], geom.base_xy[[c]] + [[3.0, 0.0]],
                     spec.alpha_length_mm, spec.beta_length_mm)[0]
-    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
     steps = [np.array([0.0])] * geom.n_robots
     angles = [fold[i][None, :] for i in range(geom.n_robots)]
     steps[right] = np.array([0.0, 40.0, 60.0, 100.0])
@@ -83,16 +73,6 @@ def test_offline_robots_are_static_obstacles():
     assert not arm.collides(fold[c][None, :], np.zeros(1)).any()
 
 
-def _hex7_folded(step: float = 0.5):
-    """The 7-robot hex at 2.0 mm: (geometry, step deg, MD mm, every robot's fold (n, 2),
-    the centre robot's index)."""
-    geom = make_geom(7, 2.0)
-    spec = geom.spec
-    md = max_displacement(spec.alpha_length_mm, spec.beta_length_mm, float(geom.seg_end.max()), step)
-    fold = np.tile(np.asarray(spec.fold_deg, float), (geom.n_robots, 1))
-    return geom, step, md, fold, int(np.argmin(np.hypot(*geom.base_xy.T)))
-
-
 def test_the_compiled_sweep_finds_what_the_python_layer_loop_finds():
     """The world's arms carry a compiled sweep (the layer loop with the step-rule test
     inside numba). Same arm, same roadmap paths: the same trajectory and node count as
@@ -104,7 +84,7 @@ def test_the_compiled_sweep_finds_what_the_python_layer_loop_finds():
     from rfp_twin.planners.roadmap.alpha_beta.settings import SearchResolveSettings
     from rfp_twin.planners.roadmap import plan_arm
 
-    geom, step, md, fold, c = _hex7_folded()
+    geom, step, md, fold, c = hex7_folded()
     right = int(np.argmin(np.hypot(*(geom.base_xy - geom.base_xy[c] - [22.4, 0.0]).T)))
     # the right neighbour swings its arm towards the centre and back over 120 steps: the
     # centre, clear where it is, must wait before it can stretch out
@@ -142,7 +122,7 @@ def test_arms_of_one_robot_share_their_edge_checks():
     from rfp_twin.planners.roadmap.alpha_beta.settings import SearchResolveSettings
     from rfp_twin.planners.roadmap import plan_arm
 
-    geom, step, md, fold, c = _hex7_folded()
+    geom, step, md, fold, c = hex7_folded()
     paths = PathSet([np.array([0.0])] * geom.n_robots, [fold[i][None, :] for i in range(geom.n_robots)])
     world = AlphaBetaWorld(geom, paths, np.ones(geom.n_robots, bool), md, step)
     settings = SearchResolveSettings(search="sweep").roadmap_settings(step)
