@@ -51,6 +51,7 @@ from bench_vs_kaiju import targets_for  # noqa: E402
 from crosscheck import INSTRUMENTS, ROOT, run_side  # noqa: E402
 
 from rfp_twin.models.array import ArrayGeometry  # noqa: E402
+from rfp_twin.models.files import atomic_write_text  # noqa: E402
 from rfp_twin.models.instrument.layout import calibration_folder, instrument_layout  # noqa: E402
 from rfp_twin.models.robot import load_spec  # noqa: E402
 from rfp_twin.planners.stepwise.mdp2_run import encoder_offsets  # noqa: E402
@@ -73,9 +74,7 @@ def _geom(inst: str) -> ArrayGeometry:
 
 
 def _write_json(path: Path, data) -> None:
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(data, indent=1))
-    tmp.replace(path)
+    atomic_write_text(path, json.dumps(data, indent=1))
 
 
 def stage_kaiju(args) -> None:

@@ -38,6 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from crosscheck import INSTRUMENTS, run_side  # noqa: E402
 
 from rfp_twin.models.array import ArrayGeometry  # noqa: E402
+from rfp_twin.models.files import atomic_write_text  # noqa: E402
 from rfp_twin.models.instrument.layout import calibration_folder, instrument_layout  # noqa: E402
 from rfp_twin.models.robot import load_spec  # noqa: E402
 from rfp_twin.planners.stepwise import array_max_displacement, run_array  # noqa: E402
@@ -180,14 +181,10 @@ def main(argv=None) -> int:
                       f"{o['seconds']:.3f} s home {o['fraction_home']:.3f} steps {o['n_steps']} "
                       f"tries {o['tries']} | ratio {k['seconds'] / o['seconds']:.1f}", flush=True)
                 if args.out:
-                    tmp = args.out.with_suffix(".tmp")
-                    tmp.write_text(json.dumps(result, indent=1))
-                    tmp.replace(args.out)
+                    atomic_write_text(args.out, json.dumps(result, indent=1))
     report(result, args.instruments.split(","), args.algorithms.split(","))
     if args.out:
-        tmp = args.out.with_suffix(".tmp")
-        tmp.write_text(json.dumps(result, indent=1))
-        tmp.replace(args.out)
+        atomic_write_text(args.out, json.dumps(result, indent=1))
     return 0
 
 

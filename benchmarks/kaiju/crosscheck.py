@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rfp_twin.models.files import atomic_write_text
 from rfp_twin.models.instrument.layout import (FIDUCIAL_ID_BASE, GFA_ID_BASE, calibration_folder,
                                                plane_to_wok)
 from rfp_twin.models.layout.columns import obstacle_arrays
@@ -269,9 +270,7 @@ def main(argv=None) -> int:
               f"fiducialWatch samples {sum(v['n_samples'] for v in r['fiducial_watch_violations'])}, "
               f"met {r['met_max_um']:.2f} um", flush=True)
         if args.out:
-            tmp = args.out.with_suffix(".tmp")
-            tmp.write_text(json.dumps(results, indent=1))
-            tmp.replace(args.out)
+            atomic_write_text(args.out, json.dumps(results, indent=1))
     return report(results)
 
 

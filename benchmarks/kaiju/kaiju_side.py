@@ -344,45 +344,36 @@ def production(args) -> dict:
     return out
 
 
+# Each sub-command's arguments as (flag, type, default); a default of None makes it required.
+ALL_COMMANDS = (("--calib", str, None), ("--out", str, None), ("--buffer", float, 2.0))
+PLANNING = (("--poses", str, None), ("--seed", int, 0), ("--step", float, 0.1),
+            ("--greed", float, 0.7), ("--phobia", float, 0.6), ("--tries", int, 5))
+REPLAY = (("--traj", str, None), ("--dt", float, 0.01))
+PRODUCTION = (("--traj-out", str, None), ("--epsilon-factor", float, 2.0), ("--retries", int, 5),
+              ("--lattice-alpha", float, 10.0), ("--lattice-beta", float, 170.0),
+              ("--speed", float, 2.0), ("--smooth-points", int, 21),
+              ("--collision-shrink", float, 0.08), ("--path-delay", float, 1.0))
+
+
+def add_sub_command(sub, name: str, *groups) -> argparse.ArgumentParser:
+    """Sub-command ``name`` with the arguments every one takes (``--calib``, ``--out``,
+    ``--buffer`` in mm) and those of ``groups`` (tuples as in :data:`PLANNING`)."""
+    parser = sub.add_parser(name)
+    for flag, kind, default in (arg for group in (ALL_COMMANDS, *groups) for arg in group):
+        if default is None:
+            parser.add_argument(flag, type=kind, required=True)
+        else:
+            parser.add_argument(flag, type=kind, default=default)
+    return parser
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
-    r = sub.add_parser("replay")
-    r.add_argument("--calib", required=True)
-    r.add_argument("--traj", required=True)
-    r.add_argument("--out", required=True)
-    r.add_argument("--dt", type=float, default=0.01)
-    r.add_argument("--buffer", type=float, default=2.0)
-    p = sub.add_parser("plan")
-    p.add_argument("--calib", required=True)
-    p.add_argument("--poses", required=True)
-    p.add_argument("--out", required=True)
-    p.add_argument("--algorithm", choices=("greedy", "mdp2"), default="mdp2")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--buffer", type=float, default=2.0)
-    p.add_argument("--step", type=float, default=0.1)
-    p.add_argument("--greed", type=float, default=0.7)
-    p.add_argument("--phobia", type=float, default=0.6)
-    p.add_argument("--tries", type=int, default=5)
-    q = sub.add_parser("production")
-    q.add_argument("--calib", required=True)
-    q.add_argument("--poses", required=True)
-    q.add_argument("--out", required=True)
-    q.add_argument("--traj-out", required=True)
-    q.add_argument("--seed", type=int, default=0)
-    q.add_argument("--buffer", type=float, default=2.0)
-    q.add_argument("--step", type=float, default=0.1)
-    q.add_argument("--epsilon-factor", type=float, default=2.0)
-    q.add_argument("--greed", type=float, default=0.7)
-    q.add_argument("--phobia", type=float, default=0.6)
-    q.add_argument("--tries", type=int, default=5)
-    q.add_argument("--retries", type=int, default=5)
-    q.add_argument("--lattice-alpha", type=float, default=10.0)
-    q.add_argument("--lattice-beta", type=float, default=170.0)
-    q.add_argument("--speed", type=float, default=2.0)
-    q.add_argument("--smooth-points", type=int, default=21)
-    q.add_argument("--collision-shrink", type=float, default=0.08)
-    q.add_argument("--path-delay", type=float, default=1.0)
+    add_sub_command(sub, "replay", REPLAY)
+    plan_parser = add_sub_command(sub, "plan", PLANNING)
+    plan_parser.add_argument("--algorithm", choices=("greedy", "mdp2"), default="mdp2")
+    add_sub_command(sub, "production", PLANNING, PRODUCTION)
     args = ap.parse_args(argv)
     result = {"replay": replay, "plan": plan, "production": production}[args.cmd](args)
     tmp = Path(args.out + ".tmp")
