@@ -1,7 +1,6 @@
 """SDSS-V's configuration flow (twin/jaeger_flow.py): decollide, retries, production smoothing."""
 from __future__ import annotations
 
-import json
 
 import numpy as np
 import pytest
@@ -14,7 +13,7 @@ from rfp_twin.planners.stepwise.recovery import min_clearance
 from rfp_twin.twin.jaeger_flow import decollide, jaeger_flow
 from rfp_twin.twin.pipeline import PlanOptions, Reconfiguration
 from rfp_twin.validation.checker2d import check_trajectory
-from tests.twin.cli.runner import run
+from tests.twin.cli.runner import plan_ok, run
 
 STEP = 0.2
 
@@ -82,11 +81,9 @@ def test_flow_fails_when_retries_are_exhausted(hex37):
 
 def test_plan_flow_jaeger_writes_what_production_would_send(tmp_path):
     out = tmp_path / "jf"
-    r = run("plan", "--layout", "hex:37", "--buffer", "2.5", "--step", "0.2", "--seed", "3",
-            "--flow", "jaeger", "--out", str(out))
-    assert r.returncode == 0, r.stderr
+    r, summary = plan_ok(out, "--layout", "hex:37", "--buffer", "2.5", "--step", "0.2",
+                         "--seed", "3", "--flow", "jaeger")
     assert "targets lost" in r.stdout and "production rule" in r.stdout
-    summary = json.loads((out / "summary.json").read_text())
     assert summary["flow"] == "jaeger" and summary["production"]["smooth_points"] == 21
     assert summary["n_targets_lost"] == len(set(summary["unlocked"]) | set(summary["decollided"]))
     assert (out / "trajectories.json").is_file()

@@ -6,16 +6,14 @@ import json
 
 import pytest
 
-from tests.twin.cli.runner import run
+from tests.twin.cli.runner import plan_ok, run
 
 
 def test_passes_write_one_run_folder_per_pass_and_each_target_once(tmp_path):
     out = tmp_path / "p"
-    r = run("plan", "--layout", "hex:19", "--buffer", "2.0", "--telescope", "none",
-            "--catalogue", "mock:uniform:3/patrol,sky=0.3,levels=2", "--seed", "2",
-            "--passes", "3", "--out", str(out))
-    assert r.returncode == 0, r.stderr
-    s = json.loads((out / "summary.json").read_text())
+    r, s = plan_ok(out, "--layout", "hex:19", "--buffer", "2.0", "--telescope", "none",
+                   "--catalogue", "mock:uniform:3/patrol,sky=0.3,levels=2", "--seed", "2",
+                   "--passes", "3")
     assert s["n_passes"] == 3 and [p["pass"] for p in s["passes"]] == [1, 2, 3]
     rows = list(csv.DictReader((out / "passes.csv").open()))
     assert [int(row["pass"]) for row in rows] == [1, 2, 3]
@@ -61,10 +59,8 @@ def test_a_direct_stuck_share_out_of_range_exits_2(tmp_path):
 
 def test_a_mock_whose_targets_need_two_exposures_is_observed_in_two_passes(tmp_path):
     out = tmp_path / "p"
-    r = run("plan", "--layout", "hex:19", "--buffer", "2.0", "--telescope", "none",
-            "--catalogue", "mock:uniform:1/patrol,exposures=2", "--seed", "2",
-            "--passes", "2", "--out", str(out))
-    assert r.returncode == 0, r.stderr
+    plan_ok(out, "--layout", "hex:19", "--buffer", "2.0", "--telescope", "none",
+            "--catalogue", "mock:uniform:1/patrol,exposures=2", "--seed", "2", "--passes", "2")
     rows = list(csv.DictReader((out / "passes.csv").open()))
     assert int(rows[0]["completed_science"]) == 0 < int(rows[0]["observed_science"])
     seen = [row["target_id"] for row in csv.DictReader((out / "observed.csv").open())]

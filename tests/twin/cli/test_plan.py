@@ -13,19 +13,17 @@ from rfp_twin.models.robot import load_spec
 from rfp_twin.models.trajectory import Trajectory
 from rfp_twin.planners.postprocess.timing import pl_kinematics
 from rfp_twin.validation.checker2d import check_trajectory
-from tests.twin.cli.runner import run
+from tests.twin.cli.runner import plan_ok, run
 
 
 def test_plan_writes_a_complete_checked_run(tmp_path):
     out = tmp_path / "run"
-    r = run("plan", "--layout", "hex:37", "--buffer", "2.0", "--step", "0.2", "--seed", "4",
-            "--offline", "3", "--out", str(out))
-    assert r.returncode == 0, r.stderr
+    r, summary = plan_ok(out, "--layout", "hex:37", "--buffer", "2.0", "--step", "0.2",
+                         "--seed", "4", "--offline", "3")
     assert "efficiency" in r.stdout and "2D check" in r.stdout
     names = {p.name for p in out.iterdir()}
     assert names == {"trajectories.json", "trajectories_to_fold.json", "layout.csv", "targets.csv",
                      "robot.toml", "summary.json", "check2d.json"}
-    summary = json.loads((out / "summary.json").read_text())
     for key in ("buffer_mm", "step_deg", "algorithm", "greed", "phobia", "seed", "direction",
                 "offline", "metrics", "check2d"):
         assert key in summary

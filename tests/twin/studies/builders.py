@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rfp_twin.twin.studies import Study, Trial, load_study
+from rfp_twin.twin.studies import Study, Trial, load_study, parse_study
 
 #: 2 buffers x 2 algorithms x 2 trials on a 19-robot grid (8 trials, ~1 s of planning).
 TINY = """
@@ -28,6 +28,15 @@ def study_file(text: str, folder: Path, name: str = "study.toml") -> Study:
     path = folder / name
     path.write_text(text)
     return load_study(path)
+
+
+def tiny_results_folder(folder: Path) -> tuple[Study, Path, list[Trial]]:
+    """The TINY study, its empty results folder ``folder/out/results`` (made here) and its
+    8 trials, for tests that write rows by hand."""
+    study = parse_study(TINY)
+    results = folder / "out" / "results"
+    results.mkdir(parents=True)
+    return study, results, study.trial_list()
 
 
 def rows_by_key(table) -> dict:

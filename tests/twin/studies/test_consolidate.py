@@ -6,19 +6,16 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from tests.twin.studies.builders import TINY, made_row
+from tests.twin.studies.builders import made_row, tiny_results_folder
 from rfp_twin.twin.studies import (CONSOLIDATED, SCHEMA, StudyError, consolidate_results,
-                                   done_keys, parse_study, read_results, results_dir, write_row)
+                                   done_keys, read_results, results_dir, write_row)
 from rfp_twin.twin.studies import store
 
 
 @pytest.fixture()
 def parts(tmp_path):
     """The 8 TINY trials as per-trial files; the first written with an older, narrower schema."""
-    study = parse_study(TINY)
-    results = tmp_path / "out" / "results"
-    results.mkdir(parents=True)
-    trials = study.trial_list()
+    study, results, trials = tiny_results_folder(tmp_path)
     for t in trials[1:]:
         write_row(results, {**made_row(study, t, kept=0.9), **t.point.ids()})
     old = made_row(study, trials[0])

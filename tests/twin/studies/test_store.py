@@ -4,7 +4,7 @@ from __future__ import annotations
 import pyarrow.parquet as pq
 import pytest
 
-from tests.twin.studies.builders import TINY, made_row
+from tests.twin.studies.builders import TINY, made_row, tiny_results_folder
 from rfp_twin.twin.studies import (COMPACT_PREFIX, SCHEMA, StudyError, compact_results, done_keys,
                           parse_study, read_results, results_dir, write_row)
 from rfp_twin.twin.studies.store import WriterLock, write_study_copy
@@ -13,10 +13,7 @@ from rfp_twin.twin.studies.store import WriterLock, write_study_copy
 @pytest.fixture()
 def written(tmp_path):
     """A study folder with the 8 TINY trials written as rows."""
-    study = parse_study(TINY)
-    results = tmp_path / "out" / "results"
-    results.mkdir(parents=True)
-    trials = study.trial_list()
+    study, results, trials = tiny_results_folder(tmp_path)
     for t in trials:
         write_row(results, made_row(study, t, efficiency=0.5 + 0.01 * t.index))
     return tmp_path / "out", trials
