@@ -1,7 +1,6 @@
 """SDSS-V's configuration flow (twin/jaeger_flow.py): decollide, retries, production smoothing."""
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 

@@ -20,7 +20,6 @@ s.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -29,6 +28,7 @@ from numba import njit
 from rfp_twin.models.errors import TrajectoryError
 from rfp_twin.validation.numerics import segment_distance
 from rfp_twin.validation.probe.geometry import arm_frames, arm_joints, capsule_ends, sample_poses
+from rfp_twin.validation.probe.sampling import ProbeSampling, plan_arrays, sample_count, time_chunks
 
 #: Samples per chunk of the dense check (bounds memory).
 CHUNK = 2048
@@ -37,7 +37,7 @@ TOL = 1e-6
 
 
 @dataclass
-class ProbeCheckReport:
+class ProbeCheckReport(ProbeSampling):
     """Verdict of :func:`check_probe_plan`.
 
     Attributes
@@ -49,7 +49,7 @@ class ProbeCheckReport:
     zoa : list of (arm, t) samples in the ZoA or out of range (first 20)
     too_fast : list of (arm, joint, speed deg/s) (first 20)
     start_stop : {arm: cycles}
-    buffer_mm, dt_s, n_samples, duration_s : what was checked
+    buffer_mm, dt_s, n_samples, duration_s : what was checked (:class:`ProbeSampling`)
     """
 
     ok: bool
@@ -59,10 +59,6 @@ class ProbeCheckReport:
     zoa: list = field(default_factory=list)
     too_fast: list = field(default_factory=list)
     start_stop: dict = field(default_factory=dict)
-    buffer_mm: float = 0.0
-    dt_s: float = 0.0
-    n_samples: int = 0
-    duration_s: float = 0.0
 
 
 @njit(cache=True)
@@ -113,25 +109,20 @@ def check_probe_plan(spec, breakpoints: dict, *, buffer_mm: float = 0.0, dt_s: f
     max_start_stop : cycles allowed per arm (None: not checked)
     """
     n = spec.n_arms
-    if sorted(breakpoints) != list(range(n)):
-        raise TrajectoryError(f"probe plan arms {sorted(breakpoints)}; allowed: every arm "
-                              f"0..{n - 1} once")
+    bp = plan_arrays(breakpoints, n)
     for i, (times, q) in breakpoints.items():
         times, q = np.asarray(times, dtype=float), np.asarray(q, dtype=float)
         if times.ndim != 1 or q.shape != (times.size, 2) or times.size == 0 or \
                 np.any(np.diff(times) < 0) or not np.all(np.isfinite(q)):
             raise TrajectoryError(f"arm {i}: breakpoints of shape {times.shape} / {q.shape}; "
                                   "allowed: times (k,) non-decreasing, configs (k, 2) finite deg")
-    bp = {i: (np.asarray(t, float), np.asarray(q, float)) for i, (t, q) in breakpoints.items()}
-    t_end = max(float(t[-1]) for t, _ in bp.values())
-    n_t = int(math.ceil(t_end / dt_s - 1e-9)) + 1
+    t_end, n_t = sample_count(bp, dt_s)
     frames = arm_frames(spec)
     pad = 2.0 * buffer_mm
     best = (np.inf, (0.0, -1, -1, -1, -1))
     contacts, zoa, too_fast = [], [], []
     lim = np.array([spec.theta1_limits_deg, spec.theta2_limits_deg])
-    for lo in range(0, n_t, CHUNK):
-        t = dt_s * np.arange(lo, min(n_t, lo + CHUNK))
+    for t in time_chunks(n_t, dt_s, CHUNK):
         q = sample_poses(bp, n, t)                                    # (T, n, 2)
         _bad_poses(spec, q, lim, t, zoa)
         ends, radii = capsule_ends(spec, q, frames)                 # (T, n, 5, 2, 2)
@@ -153,8 +144,8 @@ def check_probe_plan(spec, breakpoints: dict, *, buffer_mm: float = 0.0, dt_s: f
     cycles = {i: start_stop_cycles(*bp[i]) for i in range(n)}
     ok = best[0] > 0.0 and not zoa and not too_fast and (
         max_start_stop is None or max(cycles.values()) <= max_start_stop)
-    return ProbeCheckReport(ok, best[0], best[1], contacts, zoa, too_fast, cycles, buffer_mm,
-                            dt_s, n_t, t_end)
+    return ProbeCheckReport(ok, best[0], best[1], contacts, zoa, too_fast, cycles,
+                            buffer_mm=buffer_mm, dt_s=dt_s, n_samples=n_t, duration_s=t_end)
 
 
 def _bad_poses(spec, q: np.ndarray, lim: np.ndarray, t: np.ndarray, out: list,

@@ -21,13 +21,14 @@ import numpy as np
 from rfp_twin.models.errors import TrajectoryError
 from rfp_twin.validation.probe.geometry import (BODY_NAMES, arm_frames, capsule_ends,
                                                 sample_poses)
+from rfp_twin.validation.probe.sampling import ProbeSampling, plan_arrays, sample_count, time_chunks
 
 #: Samples handled at once (bounds memory).
 CHUNK = 1024
 
 
 @dataclass
-class ProbeCheck3DReport:
+class ProbeCheck3DReport(ProbeSampling):
     """Verdict of :func:`check_probe_plan_3d`.
 
     Attributes
@@ -38,7 +39,8 @@ class ProbeCheck3DReport:
     worst : (t s, arm a, arm b, body a, body b) of that distance (bodies by name)
     contacts : list of (t s, arm a, arm b, body a, body b) at or below 0 (first 20)
     n_queries : int, fcl.distance calls (distinct pose pairs within the margin)
-    buffer_mm, margin_mm, dt_s, n_samples, duration_s : what was checked
+    margin_mm : float, the distance beyond which body pairs are not measured, mm
+    buffer_mm, dt_s, n_samples, duration_s : what was checked (:class:`ProbeSampling`)
     """
 
     ok: bool
@@ -46,11 +48,7 @@ class ProbeCheck3DReport:
     worst: tuple
     contacts: list = field(default_factory=list)
     n_queries: int = 0
-    buffer_mm: float = 0.0
     margin_mm: float = 0.0
-    dt_s: float = 0.0
-    n_samples: int = 0
-    duration_s: float = 0.0
 
 
 class _Capsules:
@@ -99,21 +97,16 @@ def check_probe_plan_3d(spec, breakpoints: dict, *, dt_s: float = 0.1, buffer_mm
     margin_mm : body pairs farther apart than this (beyond both buffers) are not measured
     """
     n = spec.n_arms
-    if sorted(breakpoints) != list(range(n)):
-        raise TrajectoryError(f"probe plan arms {sorted(breakpoints)}; allowed: every arm "
-                              f"0..{n - 1} once")
+    bp = plan_arrays(breakpoints, n)
     if not (math.isfinite(dt_s) and dt_s > 0):
         raise TrajectoryError(f"dt_s = {dt_s}; allowed: a finite number > 0 s")
-    bp = {i: (np.asarray(t, float), np.asarray(q, float)) for i, (t, q) in breakpoints.items()}
-    t_end = max(float(t[-1]) for t, _ in bp.values())
-    n_t = int(math.ceil(t_end / dt_s - 1e-9)) + 1
+    t_end, n_t = sample_count(bp, dt_s)
     frames = arm_frames(spec)
     pad = 2.0 * buffer_mm
     reach = margin_mm + pad
     best, worst, contacts, n_queries = math.inf, (0.0, -1, -1, "", ""), [], 0
     caps = None
-    for lo in range(0, n_t, CHUNK):
-        t = dt_s * np.arange(lo, min(n_t, lo + CHUNK))
+    for t in time_chunks(n_t, dt_s, CHUNK):
         ends, radii = capsule_ends(spec, sample_poses(bp, n, t), frames)   # (T, n, 5, 2, 2)
         if caps is None:
             caps = _Capsules(spec, radii)
@@ -146,5 +139,5 @@ def check_probe_plan_3d(spec, breakpoints: dict, *, dt_s: float = 0.1, buffer_mm
                     ti, i, j = hits[k]
                     contacts.append((float(t[ti]), a, b, BODY_NAMES[i], BODY_NAMES[j]))
     best = min(best, float(margin_mm))    # unmeasured pairs are at least the margin apart
-    return ProbeCheck3DReport(best > 0.0, best, worst, contacts, n_queries, buffer_mm,
-                              margin_mm, dt_s, n_t, t_end)
+    return ProbeCheck3DReport(best > 0.0, best, worst, contacts, n_queries, margin_mm,
+                              buffer_mm=buffer_mm, dt_s=dt_s, n_samples=n_t, duration_s=t_end)
