@@ -112,7 +112,8 @@ def build_model(spec: RobotSpec, layout: Layout, geometry: RobotGeometry | None 
     if progress is not None:
         progress("compiling", 1, 1)
     base_z = geometry.params.focal_z_mm - geometry.params.fiber_z_mm
-    return TwinModel(m, s, index, spec, layout, geometry, options, base_z)
+    return TwinModel(m, s, index, spec=spec, layout=layout, geometry=geometry, options=options,
+                     base_z_mm=base_z)
 
 
 def export_model(spec: RobotSpec, layout: Layout, out_dir: str | Path,

@@ -30,7 +30,7 @@ from rfp_twin.models.layout import Layout
 from rfp_twin.models.mjcf.build import build_model
 from rfp_twin.models.mjcf.options import ModelOptions
 from rfp_twin.models.mjcf.tiles import TILE_ROBOTS, TilePlan, plan_tiles
-from rfp_twin.models.mjcf.twin_model import TwinModel
+from rfp_twin.models.mjcf.twin_model import ModelInputs, TwinModel
 from rfp_twin.models.robot import RobotSpec
 
 #: Halo contact bits are the owned bits shifted left by this much.
@@ -59,20 +59,15 @@ class Tile:
 
 
 @dataclass
-class TiledTwin:
+class TiledTwin(ModelInputs):
     """The whole array as tiles (see the module docstring).
 
-    tiles : list of Tile; plan : TilePlan; spec, layout, geometry, options : the inputs
-    base_z_mm : world z of the nominal robot frame, mm (as :class:`TwinModel`)
+    tiles : list of Tile; plan : TilePlan
+    spec, layout, geometry, options, base_z_mm : what it was built from (:class:`ModelInputs`)
     """
 
     tiles: list[Tile]
     plan: TilePlan
-    spec: RobotSpec
-    layout: Layout
-    geometry: RobotGeometry
-    options: ModelOptions
-    base_z_mm: float
 
     @property
     def n_robots(self) -> int:
@@ -160,4 +155,5 @@ def build_tiled(spec: RobotSpec, layout: Layout, geometry: RobotGeometry | None 
     if progress is not None:
         progress("tiles", plan.n_tiles, plan.n_tiles)
     base_z = geometry.params.focal_z_mm - geometry.params.fiber_z_mm
-    return TiledTwin(tiles, plan, spec, layout, geometry, options, base_z)
+    return TiledTwin(tiles, plan, spec=spec, layout=layout, geometry=geometry, options=options,
+                     base_z_mm=base_z)

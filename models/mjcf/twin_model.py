@@ -19,8 +19,24 @@ from rfp_twin.models.mjcf.tiles import contact_reach_mm
 from rfp_twin.models.robot import RobotSpec
 
 
+@dataclass(kw_only=True)
+class ModelInputs:
+    """What a twin (:class:`TwinModel`, or a tiled one) was built from, to rebuild or redraw it.
+
+    spec : RobotSpec; layout : Layout; geometry : RobotGeometry; options : ModelOptions
+    base_z_mm : float, world z of the nominal robot frame (top face of the fixed bodies); a
+        robot with a ``z_mm`` layout column stands that much higher
+    """
+
+    spec: RobotSpec
+    layout: Layout
+    geometry: RobotGeometry
+    options: ModelOptions
+    base_z_mm: float
+
+
 @dataclass
-class TwinModel:
+class TwinModel(ModelInputs):
     """A compiled grid model and everything needed to drive, render or record it.
 
     Attributes
@@ -29,19 +45,12 @@ class TwinModel:
     mjspec : mujoco.MjSpec (the spec it was compiled from; None for the tiles of a tiled
         twin, which do not keep it)
     index : ModelIndex
-    spec : RobotSpec; layout : Layout; geometry : RobotGeometry; options : ModelOptions
-    base_z_mm : float, world z of the nominal robot frame (top face of the fixed bodies); a
-        robot with a ``z_mm`` layout column stands that much higher
+    spec, layout, geometry, options, base_z_mm : what it was built from (:class:`ModelInputs`)
     """
 
     model: mujoco.MjModel
     mjspec: mujoco.MjSpec | None
     index: ModelIndex
-    spec: RobotSpec
-    layout: Layout
-    geometry: RobotGeometry
-    options: ModelOptions
-    base_z_mm: float
 
     @property
     def n_robots(self) -> int:

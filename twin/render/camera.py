@@ -189,8 +189,8 @@ def render_model(twin: TwinModel, settings: RenderSettings) -> TwinModel:
                          twin.options)
     else:
         m = twin.model.__copy__()
-        rt = TwinModel(m, twin.mjspec, twin.index, twin.spec, twin.layout, geometry, twin.options,
-                       twin.base_z_mm)
+        rt = TwinModel(m, twin.mjspec, twin.index, spec=twin.spec, layout=twin.layout,
+                       geometry=geometry, options=twin.options, base_z_mm=twin.base_z_mm)
     m = rt.model
     for name in ("cam_pos", "cam_quat", "cam_pos0", "cam_mat0", "cam_fovy"):
         getattr(m, name)[:] = getattr(twin.model, name)
