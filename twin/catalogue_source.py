@@ -21,6 +21,7 @@ every patrol area.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from pathlib import Path
 
@@ -28,7 +29,7 @@ import numpy as np
 
 from rfp_twin.models.catalogue import (TELESCOPES, Catalogue, Disc, Telescope, density_per_mm2,
                                        mock_catalogue, read_catalogue)
-from rfp_twin.models.catalogue.catalogue import MAX_EXPOSURES
+from rfp_twin.models.catalogue.catalogue import MAX_EXPOSURES, bad_exposures
 from rfp_twin.models.errors import CatalogueError
 
 MOCK_PREFIX = "mock:"
@@ -127,10 +128,13 @@ def mock_from_text(text: str, geom, telescope: Telescope | None,
 
     def number(key: str, default: float) -> float:
         try:
-            return float(keys.get(key, default))
+            value = float(keys.get(key, default))
         except ValueError:
+            value = math.nan
+        if not math.isfinite(value):
             raise CatalogueError(f"--catalogue {text!r}: {key}={keys[key]!r}; allowed: a "
-                                 "number") from None
+                                 "finite number")
+        return value
 
     disc = _mock_disc(geom, telescope)
     levels = number("levels", 1)
@@ -139,7 +143,7 @@ def mock_from_text(text: str, geom, telescope: Telescope | None,
                              "integer in [1, 1000]")
     sigma = number("sigma", 2.0 * geom.spec.reach_mm)
     exposures = number("exposures", 1)
-    if exposures != int(exposures) or not 1 <= exposures <= MAX_EXPOSURES:
+    if bad_exposures([exposures]).size:
         raise CatalogueError(f"--catalogue {text!r}: exposures={keys['exposures']!r}; allowed: "
                              f"an integer in [1, {MAX_EXPOSURES}]")
     science = mock_catalogue(rng, disc, per_mm2(density), process=process, kind="science",

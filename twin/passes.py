@@ -4,8 +4,8 @@
 once per pass on what is left of the catalogue: science targets that had the exposures
 they need (``Catalogue.exposures``, 1 unless the catalogue says more) are removed, the
 others stay with their priorities; calibration targets (sky, standards) stay, since every
-exposure needs its own. A target is complete once it had its exposures. Each pass's assignment is one
-the planner keeps whole, checked from the fold, as in a single pointing.
+exposure needs its own. A target is complete once it had its exposures. Each pass's
+assignment is one the planner keeps whole, checked from the fold, as in a single pointing.
 
 The reconfiguration between two passes starts where the robots stand (the previous
 pass's poses A) and ends at the next pass's targets B:

@@ -61,7 +61,7 @@ class Catalogue:
         fiber = np.asarray(self.fiber, dtype=np.int8).reshape(t)
         exp = (np.ones(t, dtype=np.int64) if self.exposures is None
                else np.asarray(self.exposures).reshape(t))
-        bad = np.flatnonzero(~((exp >= 1) & (exp <= MAX_EXPOSURES) & (exp == np.round(exp))))
+        bad = bad_exposures(exp)
         if bad.size:
             r = int(bad[0])
             raise CatalogueError(f"{self.source}: row {r}: target {int(ids[r])}: field "
@@ -130,6 +130,13 @@ class Catalogue:
                    np.concatenate([p.fiber for p in parts]),
                    source or " + ".join(p.source for p in parts),
                    np.concatenate([p.exposures for p in parts]))
+
+
+def bad_exposures(values) -> np.ndarray:
+    """Indices of the entries of ``values`` (array-like of numbers) that are not an integer
+    in [1, :data:`MAX_EXPOSURES`] (NaN included)."""
+    v = np.asarray(values, dtype=np.float64).reshape(-1)
+    return np.flatnonzero(~((v >= 1) & (v <= MAX_EXPOSURES) & (v == np.round(v))))
 
 
 def code_of(value: str, names: tuple[str, ...]) -> int:

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from rfp_twin.models.catalogue.catalogue import (KINDS, MAX_EXPOSURES, TARGET_FIBERS,
-                                                  Catalogue, code_of)
+                                                  Catalogue, bad_exposures, code_of)
 from rfp_twin.models.catalogue.sky import check_field_centre, sky_to_focal
 from rfp_twin.models.errors import CatalogueError
 
@@ -148,8 +148,7 @@ def read_catalogue(path: str | Path, *, field_centre: tuple[float, float] | None
     kind = _codes(cols.get("kind"), n, "kind", KINDS, "science", where)
     fiber = _codes(cols.get("fiber"), n, "fiber", TARGET_FIBERS, "any", where)
     exposures = numbers("exposures", 1.0)
-    bad = np.flatnonzero((exposures < 1) | (exposures > MAX_EXPOSURES)
-                         | (exposures != np.round(exposures)))
+    bad = bad_exposures(exposures)
     if bad.size:
         r = int(bad[0])
         raise CatalogueError(f"{where(r)}: field 'exposures' = {cols['exposures'][r]!r}; "

@@ -110,8 +110,7 @@ def check_probe_plan(spec, breakpoints: dict, *, buffer_mm: float = 0.0, dt_s: f
     """
     n = spec.n_arms
     bp = plan_arrays(breakpoints, n)
-    for i, (times, q) in breakpoints.items():
-        times, q = np.asarray(times, dtype=float), np.asarray(q, dtype=float)
+    for i, (times, q) in bp.items():
         if times.ndim != 1 or q.shape != (times.size, 2) or times.size == 0 or \
                 np.any(np.diff(times) < 0) or not np.all(np.isfinite(q)):
             raise TrajectoryError(f"arm {i}: breakpoints of shape {times.shape} / {q.shape}; "

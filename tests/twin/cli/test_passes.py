@@ -70,3 +70,14 @@ def test_a_mock_whose_targets_need_two_exposures_is_observed_in_two_passes(tmp_p
     r = run("plan", "--layout", "hex:7", "--telescope", "none", "--catalogue",
             "mock:uniform:1/patrol,exposures=0", "--passes", "2", "--out", str(tmp_path / "q"))
     assert r.returncode == 2 and "exposures='0'; allowed: an integer in [1, 1000]" in r.stderr
+
+
+@pytest.mark.parametrize("key", ["exposures=nan", "levels=inf", "sigma=nan", "exposures=2.5"])
+def test_a_mock_key_that_is_not_a_finite_number_or_integer_exits_2(tmp_path, key):
+    out = tmp_path / "p"
+    r = run("plan", "--layout", "hex:7", "--telescope", "none", "--catalogue",
+            f"mock:uniform:1/patrol,{key}", "--out", str(out))
+    allowed = "an integer in [1, 1000]" if key == "exposures=2.5" else "a finite number"
+    assert r.returncode == 2 and f"{key.split('=')[0]}='{key.split('=')[1]}'; allowed: " \
+        f"{allowed}" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not out.exists()
