@@ -113,6 +113,12 @@ def timed(fn, *args, **kwargs):
     return out, time.perf_counter() - t0
 
 
+def seed_range(text: str) -> list[int]:
+    """The seeds of ``--seeds`` text: ``"7"`` or an inclusive range ``"1-50"``."""
+    lo, _, hi = text.partition("-")
+    return list(range(int(lo), int(hi or lo) + 1))
+
+
 def write_block(text: str, md_out: str | Path | None) -> None:
     """Print the markdown block of a run; with ``md_out``, also write it to that file."""
     print(text)

@@ -28,12 +28,7 @@ import time
 
 import numpy as np
 
-from bench_common import machine_info, md_table, write_block
-
-
-def _seeds(text: str) -> list[int]:
-    lo, _, hi = text.partition("-")
-    return list(range(int(lo), int(hi or lo) + 1))
+from bench_common import machine_info, md_table, seed_range, write_block
 
 
 def run_one(layout: str, buffer_mm: float, seed: int) -> dict:
@@ -77,7 +72,7 @@ def main() -> None:
     for layout in args.layouts:
         for b in args.buffers:
             rs, refused = [], 0
-            for seed in _seeds(args.seeds):
+            for seed in seed_range(args.seeds):
                 r = run_one(layout, b, seed)
                 print(json.dumps(r), flush=True)
                 rows.append(r)

@@ -47,6 +47,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
+from bench_common import seed_range  # noqa: E402
 from bench_vs_kaiju import targets_for  # noqa: E402
 from crosscheck import INSTRUMENTS, ROOT, run_side  # noqa: E402
 
@@ -63,11 +64,6 @@ PATH_DELAY_S = 1.0
 LATTICE = (10.0, 170.0)
 
 
-def _seeds(text: str) -> list[int]:
-    lo, _, hi = text.partition("-")
-    return list(range(int(lo), int(hi or lo) + 1))
-
-
 def _geom(inst: str) -> ArrayGeometry:
     spec = load_spec("sdss-v-production")
     return ArrayGeometry(spec, instrument_layout(INSTRUMENTS[inst]), BUFFER_MM)
@@ -82,7 +78,7 @@ def stage_kaiju(args) -> None:
     geom = _geom(args.instrument)
     calib = calibration_folder(INSTRUMENTS[args.instrument])
     off = encoder_offsets(geom)
-    for seed in _seeds(args.seeds):
+    for seed in seed_range(args.seeds):
         folder = args.work / f"{args.instrument}-{seed}"
         folder.mkdir(parents=True, exist_ok=True)
         if (folder / "kaiju.json").is_file():
@@ -193,7 +189,7 @@ def stage_ours(args) -> None:
              "sdss-v-p1": LinkModels.from_geometry(load_geometry("sdss-v-p1", spec))}
     rc = Reconfiguration(geom, PlanOptions())
     rc.run(seed=0, targets=targets_for(geom, 0))          # compile, untimed
-    for seed in _seeds(args.seeds):
+    for seed in seed_range(args.seeds):
         folder = args.work / f"{args.instrument}-{seed}"
         folder.mkdir(parents=True, exist_ok=True)
         with_p1 = (seed - 1) % args.p1_every == 0

@@ -35,6 +35,8 @@ import numpy as np
 from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from bench_common import seed_range  # noqa: E402
 from crosscheck import INSTRUMENTS, run_side  # noqa: E402
 
 from rfp_twin.models.array import ArrayGeometry  # noqa: E402
@@ -111,11 +113,6 @@ def ours_plan(geom: ArrayGeometry, targets: np.ndarray, fold: np.ndarray, algori
             "not_home": [int(r) for r in geom.robot_ids[~home]]}
 
 
-def _seeds(text: str) -> list[int]:
-    lo, _, hi = text.partition("-")
-    return list(range(int(lo), int(hi or lo) + 1))
-
-
 def summarize(rows: list[dict]) -> dict:
     """Medians, ratios and two-sample tests of ours against kaiju over ``rows``."""
     k_s = np.array([r["kaiju"]["seconds"] for r in rows])
@@ -167,7 +164,7 @@ def main(argv=None) -> int:
         warm = targets_for(geom, 0)                       # compile our kernels, untimed
         for alg in args.algorithms.split(","):
             ours_plan(geom, warm, fold, alg, 0)
-        for seed in _seeds(args.seeds):
+        for seed in seed_range(args.seeds):
             targets = targets_for(geom, seed)
             for alg in args.algorithms.split(","):
                 k = kaiju_plan(calib, geom, targets, fold, alg, seed)

@@ -40,13 +40,17 @@ from pathlib import Path
 
 import numpy as np
 
-from rfp_twin.models.files import atomic_write_text
-from rfp_twin.models.instrument.layout import (FIDUCIAL_ID_BASE, GFA_ID_BASE, calibration_folder,
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from bench_common import seed_range  # noqa: E402
+
+from rfp_twin.models.files import atomic_write_text  # noqa: E402
+from rfp_twin.models.instrument.layout import (FIDUCIAL_ID_BASE, GFA_ID_BASE,  # noqa: E402
+                                               calibration_folder,
                                                plane_to_wok)
-from rfp_twin.models.layout.columns import obstacle_arrays
-from rfp_twin.twin.run_dir import fiber_positions, load_run
-from rfp_twin.validation.checker2d.speeds import robot_arms
-from rfp_twin.validation.numerics import segment_distance_np
+from rfp_twin.models.layout.columns import obstacle_arrays  # noqa: E402
+from rfp_twin.twin.run_dir import fiber_positions, load_run  # noqa: E402
+from rfp_twin.validation.checker2d.speeds import robot_arms  # noqa: E402
+from rfp_twin.validation.numerics import segment_distance_np  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -221,11 +225,6 @@ def plan_run(instrument: str, algorithm: str, seed: int, out: Path, raw: bool = 
     return out
 
 
-def _seeds(text: str) -> list[int]:
-    lo, _, hi = text.partition("-")
-    return list(range(int(lo), int(hi or lo) + 1))
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("runs", nargs="*", type=Path)
@@ -248,7 +247,7 @@ def main(argv=None) -> int:
     if args.matrix:
         for alg in args.algorithms.split(","):
             for inst in args.instruments.split(","):
-                for s in _seeds(args.seeds):
+                for s in seed_range(args.seeds):
                     runs.append((inst, alg, s))
     # an earlier --out file is resumed: its runs are kept and not checked again
     results = json.loads(args.out.read_text()) if args.out and args.out.is_file() else []
